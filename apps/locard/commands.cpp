@@ -1,0 +1,30 @@
+#include "commands.hpp"
+
+#include <map>
+
+namespace locard::cli {
+namespace {
+std::map<const CLI::App*, CommandRunner>& runners() {
+  static std::map<const CLI::App*, CommandRunner> map;
+  return map;
+}
+}  // namespace
+
+void set_runner(CLI::App* subcommand, CommandRunner runner) {
+  runners()[subcommand] = std::move(runner);
+}
+
+void register_all(CLI::App& app, GlobalOptions& global) {
+  register_info(app, global);
+  register_convert(app, global);
+}
+
+int run_selected(CLI::App& app) {
+  for (const CLI::App* sub : app.get_subcommands()) {
+    auto it = runners().find(sub);
+    if (it != runners().end()) return it->second();
+  }
+  return 2;
+}
+
+}  // namespace locard::cli

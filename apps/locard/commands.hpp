@@ -1,0 +1,27 @@
+#pragma once
+// Sub-command registry. Each cmd_<name>.cpp defines register_<name>(), which adds its
+// CLI11 sub-command and the callback that runs it.
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+
+namespace locard::cli {
+
+struct GlobalOptions {
+  bool quiet = false;
+};
+
+// Runs a sub-command; returns the process exit code.
+using CommandRunner = std::function<int()>;
+
+void register_all(CLI::App& app, GlobalOptions& global);
+// Executes the sub-command the user chose.
+int run_selected(CLI::App& app);
+// Used by the cmd_*.cpp files to attach their runner to their sub-command.
+void set_runner(CLI::App* subcommand, CommandRunner runner);
+
+void register_info(CLI::App& app, GlobalOptions& global);
+void register_convert(CLI::App& app, GlobalOptions& global);
+
+}  // namespace locard::cli

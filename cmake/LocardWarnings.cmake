@@ -1,0 +1,17 @@
+# Compiler flags shared by every Locard target (applied through locard_set_flags()).
+function(locard_set_flags target)
+  target_compile_options(${target} PRIVATE -Wall -Wextra -Wpedantic -Wshadow
+                         -Wnon-virtual-dtor -Wconversion-null -Wno-sign-compare)
+  if(LOCARD_WERROR)
+    target_compile_options(${target} PRIVATE -Werror)
+  endif()
+  if(LOCARD_NATIVE)
+    target_compile_options(${target} PRIVATE -march=native)
+  endif()
+endfunction()
+
+if(LOCARD_SANITIZE)
+  add_compile_options(-fsanitize=address,undefined -fno-omit-frame-pointer
+                      -fno-sanitize-recover=undefined)
+  add_link_options(-fsanitize=address,undefined)
+endif()

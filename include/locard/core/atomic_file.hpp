@@ -1,0 +1,30 @@
+#pragma once
+// Writes an output file so that it either appears complete or not at all: data goes to a
+// temporary file in the same folder, which is renamed over the target only on commit().
+// If the writer throws before commit(), the destructor removes the temporary file.
+
+#include <filesystem>
+#include <fstream>
+
+namespace locard {
+
+class AtomicFile {
+ public:
+  explicit AtomicFile(std::filesystem::path target, bool binary = true);
+  ~AtomicFile();
+  AtomicFile(const AtomicFile&) = delete;
+  AtomicFile& operator=(const AtomicFile&) = delete;
+
+  std::ofstream& stream() { return stream_; }
+  const std::filesystem::path& temp_path() const { return temp_; }
+  // Flushes, checks the stream and renames over the target. Throws locard::Error on failure.
+  void commit();
+
+ private:
+  std::filesystem::path target_;
+  std::filesystem::path temp_;
+  std::ofstream stream_;
+  bool committed_ = false;
+};
+
+}  // namespace locard

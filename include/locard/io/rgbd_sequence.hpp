@@ -1,0 +1,84 @@
+#pragma once
+// Recorded RGB-D sequences, detected automatically from a folder:
+//  - TUM RGB-D: rgb.txt, depth.txt (+ groundtruth.txt); depth scale 5000; colour and depth
+//    associated by nearest timestamp within a tolerance.
+//  - 7-Scenes: frame-NNNNNN.{color.jpg|color.png, depth.png (mm), pose.txt (camera-to-world)}.
+//  - Redwood / Open3D: color/, depth/, *.log trajectories, camera intrinsics JSON.
+// A sequence is a cheap index (paths, timestamps, poses); images are read by load_frame().
+
+#include <locard/core/camera_intrinsics.hpp>
+#include <locard/core/pose.hpp>
+#include <locard/core/rgbd_frame.hpp>
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace locard {
+
+enum class DatasetFormat {
+  Unknown,
+  Tum,           // TUM RGB-D folder (also what `locard scan-sim` writes)
+  SevenScenes,   // 7-Scenes folder
+  Redwood,       // Redwood / Open3D folder
+  PlyCloud,      // a single .ply file
+  PcdCloud,      // a single .pcd file
+  StanfordConf,  // a Stanford .conf alignment file (or a folder holding one)
+};
+
+std::string_view to_string(DatasetFormat format);
+
+// What is at `path`; Unknown if nothing matches (callers report what was looked for).
+DatasetFormat detect_format(const std::filesystem::path& path);
+
+struct FrameEntry {
+  std::int64_t frame_index = -1;
+  double timestamp = 0.0;
+  std::filesystem::path color_path;  // may be empty (depth-only)
+  std::filesystem::path depth_path;
+  std::optional<Isometry3d> T_world_camera;  // ground truth at this frame, when known
+};
+
+struct SequenceOptions {
+  double max_time_difference = 0.02;           // TUM colour/depth/ground-truth association (s)
+  std::optional<CameraIntrinsics> intrinsics;  // override what the dataset says
+  std::optional<double> depth_scale;           // override (raw units per metre)
+};
+
+struct RgbdSequence {
+  DatasetFormat format = DatasetFormat::Unknown;
+  std::filesystem::path root;
+  CameraIntrinsics intrinsics;
+  std::string intrinsics_source;  // "camera-intrinsics.txt", "preset tum_freiburg1", ...
+  double depth_scale = 1000.0;
+  std::vector<FrameEntry> frames;  // frames with images, in capture order
+  Trajectory ground_truth;         // every ground-truth pose the dataset has (may be more
+                                   // poses than frames, e.g. 1000 poses for 374 7-Scenes frames)
+
+  bool has_ground_truth() const { return !ground_truth.empty(); }
+  // Reads and checks frame `i`: images exist and decode, depth is 16-bit, colour and depth
+  // sizes agree with each other and the intrinsics. Throws InputError naming file and frame.
+  RgbdFrame load_frame(std::size_t i) const;
+};
+
+RgbdSequence open_rgbd_sequence(const std::filesystem::path& path,
+                                const SequenceOptions& options = {});
+RgbdSequence read_tum_sequence(const std::filesystem::path& folder,
+                               const SequenceOptions& options = {});
+RgbdSequence read_seven_scenes_sequence(const std::filesystem::path& folder,
+                                        const SequenceOptions& options = {});
+RgbdSequence read_redwood_sequence(const std::filesystem::path& folder,
+                                   const SequenceOptions& options = {});
+
+// Intrinsics files: Locard/our simulator's intrinsics.json ({"width","height","fx","fy","cx",
+// "cy", optional "depth_scale", "name"}), Open3D's PinholeCameraIntrinsic JSON
+// ({"width","height","intrinsic_matrix": column-major 3x3}) and a plain 3x3 K text file
+// (7-Scenes camera-intrinsics.txt; width/height then come from the first image).
+CameraIntrinsics read_intrinsics_json(const std::filesystem::path& path);
+void write_intrinsics_json(const std::filesystem::path& path, const CameraIntrinsics& intrinsics,
+                           double depth_scale);
+
+}  // namespace locard
