@@ -1,0 +1,112 @@
+// `locard convert IN OUT`: cloud to cloud (PLY <-> PCD, ascii/binary/compressed), or an RGB-D
+// sequence to one point cloud, each frame back-projected at its ground-truth pose.
+#include "commands.hpp"
+
+#include <locard/core/error.hpp>
+#include <locard/core/progress.hpp>
+#include <locard/io/point_cloud_io.hpp>
+#include <locard/io/rgbd_sequence.hpp>
+#include <locard/preprocess/depth_to_points.hpp>
+
+#include <fmt/format.h>
+#include <tbb/parallel_for.h>
+
+namespace locard::cli {
+namespace {
+
+struct ConvertOptions {
+  std::string input;
+  std::string output;
+  bool ascii = false;
+  bool compressed = false;
+  bool force = false;
+  // sequence -> cloud
+  int every = 1;
+  int stride = 1;
+  double min_depth = 0.1;
+  double max_depth = 10.0;
+  long first = 0;
+  long count = -1;
+};
+
+PointCloud fuse_sequence(const ConvertOptions& opt, bool quiet) {
+  const RgbdSequence seq = open_rgbd_sequence(opt.input);
+  std::vector<std::size_t> picked;
+  const long last = opt.count < 0 ? static_cast<long>(seq.frames.size())
+                                  : std::min<long>(seq.frames.size(), opt.first + opt.count);
+  for (long i = opt.first; i < last; i += opt.every) {
+    if (!seq.frames[i].T_world_camera)
+      throw_input_error(seq.frames[i].depth_path,
+                        fmt::format("frame {} has no ground-truth pose; convert needs poses to "
+                                    "merge frames (use `locard align` for unposed sequences)",
+                                    seq.frames[i].frame_index));
+    picked.push_back(static_cast<std::size_t>(i));
+  }
+  if (picked.empty()) throw_input_error(opt.input, "no frames selected");
+  DepthToPointsOptions dopt;
+  dopt.stride = opt.stride;
+  dopt.min_depth_m = opt.min_depth;
+  dopt.max_depth_m = opt.max_depth;
+  std::vector<PointCloud> parts(picked.size());
+  ProgressBar bar("back-projecting", picked.size(), ProgressBar::should_show(quiet));
+  tbb::parallel_for(std::size_t{0}, picked.size(), [&](std::size_t j) {
+    const RgbdFrame frame = seq.load_frame(picked[j]);
+    parts[j] = depth_to_points(frame, dopt, *seq.frames[picked[j]].T_world_camera);
+    bar.advance();
+  });
+  bar.finish();
+  PointCloud merged;
+  std::size_t total = 0;
+  for (const auto& p : parts) total += p.size();
+  merged.reserve(total, false, true);
+  for (const auto& p : parts) merged.append(p);
+  return merged;
+}
+
+}  // namespace
+
+void register_convert(CLI::App& app, GlobalOptions& global) {
+  auto opt = std::make_shared<ConvertOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "convert",
+      "Convert a point cloud between PLY and PCD, or merge an RGB-D sequence with ground-truth "
+      "poses into one coloured point cloud");
+  sub->add_option("input", opt->input, "Input cloud (.ply, .pcd) or RGB-D sequence folder")
+      ->required();
+  sub->add_option("output", opt->output, "Output cloud (.ply or .pcd)")->required();
+  sub->add_flag("--ascii", opt->ascii, "Write ascii instead of binary");
+  sub->add_flag("--compressed", opt->compressed, "PCD: write binary_compressed (LZF)");
+  sub->add_flag("--force", opt->force, "Overwrite an existing output file");
+  sub->add_option("--every", opt->every, "Sequence input: use every N-th frame")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--first", opt->first, "Sequence input: first frame (index in the list)")
+      ->check(CLI::NonNegativeNumber);
+  sub->add_option("--count", opt->count, "Sequence input: number of frames (default: all)");
+  sub->add_option("--stride", opt->stride, "Sequence input: take every N-th pixel")
+      ->check(CLI::PositiveNumber);
+  sub->add_option("--min-depth", opt->min_depth, "Sequence input: nearest depth kept (m)");
+  sub->add_option("--max-depth", opt->max_depth, "Sequence input: farthest depth kept (m)");
+  set_runner(sub, [opt, &global]() {
+    if (!is_point_cloud_file(opt->output))
+      throw_input_error(opt->output, "output must end in .ply or .pcd");
+    if (std::filesystem::exists(opt->output) && !opt->force)
+      throw_input_error(opt->output, "output exists; pass --force to overwrite it");
+    if (!std::filesystem::exists(opt->input)) throw_input_error(opt->input, "no such file or folder");
+    PointCloud cloud;
+    const DatasetFormat format = detect_format(opt->input);
+    if (format == DatasetFormat::PlyCloud || format == DatasetFormat::PcdCloud)
+      cloud = read_point_cloud(opt->input);
+    else if (format == DatasetFormat::Tum || format == DatasetFormat::SevenScenes ||
+             format == DatasetFormat::Redwood)
+      cloud = fuse_sequence(*opt, global.quiet);
+    else
+      throw_input_error(opt->input, "not a point cloud or RGB-D sequence Locard can read");
+    write_point_cloud(opt->output, cloud, {.ascii = opt->ascii, .compressed = opt->compressed});
+    if (!global.quiet)
+      fmt::print("wrote {} ({} points{}{})\n", opt->output, cloud.size(),
+                 cloud.has_colors() ? ", colours" : "", cloud.has_normals() ? ", normals" : "");
+    return 0;
+  });
+}
+
+}  // namespace locard::cli

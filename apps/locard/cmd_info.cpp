@@ -1,0 +1,201 @@
+// `locard info PATH`: what a dataset or cloud file holds, without changing anything.
+#include "commands.hpp"
+
+#include <locard/core/error.hpp>
+#include <locard/core/progress.hpp>
+#include <locard/io/image_io.hpp>
+#include <locard/io/point_cloud_io.hpp>
+#include <locard/io/rgbd_sequence.hpp>
+#include <locard/io/stanford_conf.hpp>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <limits>
+#include <mutex>
+
+namespace locard::cli {
+namespace {
+
+struct InfoOptions {
+  std::string path;
+  bool json = false;
+  int every = 1;
+};
+
+nlohmann::json intrinsics_json(const CameraIntrinsics& k) {
+  return {{"name", k.name}, {"width", k.width}, {"height", k.height},
+          {"fx", k.fx},     {"fy", k.fy},       {"cx", k.cx},
+          {"cy", k.cy}};
+}
+
+// Min/max valid depth in metres over the frames (every `every`-th), read in parallel.
+std::pair<double, double> depth_range(const RgbdSequence& seq, int every, bool quiet) {
+  std::vector<std::size_t> picked;
+  for (std::size_t i = 0; i < seq.frames.size(); i += static_cast<std::size_t>(every))
+    picked.push_back(i);
+  ProgressBar bar("reading depth", picked.size(), ProgressBar::should_show(quiet));
+  std::mutex mutex;
+  unsigned lo = std::numeric_limits<unsigned>::max(), hi = 0;
+  tbb::parallel_for(std::size_t{0}, picked.size(), [&](std::size_t j) {
+    const auto& entry = seq.frames[picked[j]];
+    const DepthImage depth = read_depth_image(entry.depth_path);
+    unsigned flo = std::numeric_limits<unsigned>::max(), fhi = 0;
+    for (const std::uint16_t d : depth.data())
+      if (d) {
+        flo = std::min<unsigned>(flo, d);
+        fhi = std::max<unsigned>(fhi, d);
+      }
+    {
+      std::lock_guard lock(mutex);
+      lo = std::min(lo, flo);
+      hi = std::max(hi, fhi);
+    }
+    bar.advance();
+  });
+  bar.finish();
+  if (hi == 0) return {0.0, 0.0};
+  return {lo / seq.depth_scale, hi / seq.depth_scale};
+}
+
+int info_sequence(const InfoOptions& opt, const GlobalOptions& global) {
+  const RgbdSequence seq = open_rgbd_sequence(opt.path);
+  const auto [dmin, dmax] = depth_range(seq, opt.every, global.quiet);
+  const auto& k = seq.intrinsics;
+  if (opt.json) {
+    nlohmann::json j = {{"path", opt.path},
+                        {"format", std::string(to_string(seq.format))},
+                        {"frames", seq.frames.size()},
+                        {"resolution", {k.width, k.height}},
+                        {"intrinsics", intrinsics_json(k)},
+                        {"intrinsics_source", seq.intrinsics_source},
+                        {"depth_scale", seq.depth_scale},
+                        {"depth_range_m", {dmin, dmax}},
+                        {"ground_truth", seq.has_ground_truth()},
+                        {"ground_truth_poses", seq.ground_truth.size()}};
+    std::printf("%s\n", j.dump(2).c_str());
+    return 0;
+  }
+  const std::size_t with_pose =
+      std::count_if(seq.frames.begin(), seq.frames.end(),
+                    [](const FrameEntry& f) { return f.T_world_camera.has_value(); });
+  fmt::print("path:          {}\n", opt.path);
+  fmt::print("format:        {}\n", to_string(seq.format));
+  fmt::print("frames:        {} with images\n", seq.frames.size());
+  if (!seq.frames.empty())
+    fmt::print("time span:     {:.3f} s .. {:.3f} s\n", seq.frames.front().timestamp,
+               seq.frames.back().timestamp);
+  fmt::print("resolution:    {}x{}\n", k.width, k.height);
+  fmt::print("intrinsics:    {} fx={} fy={} cx={} cy={} (from {})\n",
+             k.name.empty() ? "custom" : k.name, k.fx, k.fy, k.cx, k.cy, seq.intrinsics_source);
+  fmt::print("depth scale:   {} units per metre\n", seq.depth_scale);
+  fmt::print("depth range:   {:.3f} m .. {:.3f} m{}\n", dmin, dmax,
+             opt.every > 1 ? fmt::format(" (every {}th frame)", opt.every) : "");
+  if (seq.has_ground_truth())
+    fmt::print("ground truth:  yes, {} poses ({} of the frames with images have one)\n",
+               seq.ground_truth.size(), with_pose);
+  else
+    fmt::print("ground truth:  no\n");
+  return 0;
+}
+
+int info_cloud(const InfoOptions& opt, DatasetFormat format) {
+  const PointCloud cloud = read_point_cloud(opt.path);
+  Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
+  Eigen::Vector3f hi = -lo;
+  for (const auto& p : cloud.positions)
+    if (p.allFinite()) {
+      lo = lo.cwiseMin(p);
+      hi = hi.cwiseMax(p);
+    }
+  std::vector<std::string> scalars;
+  for (const auto& s : cloud.scalars) scalars.push_back(s.name);
+  if (opt.json) {
+    nlohmann::json j = {{"path", opt.path},
+                        {"format", std::string(to_string(format))},
+                        {"points", cloud.size()},
+                        {"normals", cloud.has_normals()},
+                        {"colors", cloud.has_colors()},
+                        {"scalars", scalars}};
+    if (!cloud.empty()) j["bounds"] = {{lo.x(), lo.y(), lo.z()}, {hi.x(), hi.y(), hi.z()}};
+    std::printf("%s\n", j.dump(2).c_str());
+    return 0;
+  }
+  fmt::print("path:          {}\n", opt.path);
+  fmt::print("format:        {}\n", to_string(format));
+  fmt::print("points:        {}\n", cloud.size());
+  fmt::print("attributes:    positions{}{}{}\n", cloud.has_normals() ? ", normals" : "",
+             cloud.has_colors() ? ", colours" : "",
+             scalars.empty() ? "" : ", " + fmt::format("{}", fmt::join(scalars, ", ")));
+  if (!cloud.empty())
+    fmt::print("bounds:        [{:.4f} {:.4f} {:.4f}] .. [{:.4f} {:.4f} {:.4f}] m\n", lo.x(),
+               lo.y(), lo.z(), hi.x(), hi.y(), hi.z());
+  fmt::print("ground truth:  no\n");
+  return 0;
+}
+
+int info_conf(const InfoOptions& opt) {
+  std::filesystem::path conf_path = opt.path;
+  if (std::filesystem::is_directory(conf_path))
+    for (const auto& e : std::filesystem::directory_iterator(conf_path))
+      if (e.path().extension() == ".conf") conf_path = e.path();
+  const StanfordConf conf = read_stanford_conf(conf_path);
+  if (opt.json) {
+    nlohmann::json scans = nlohmann::json::array();
+    for (const auto& s : conf.scans)
+      scans.push_back({{"name", s.name}, {"exists", std::filesystem::exists(s.file)}});
+    std::printf("%s\n", nlohmann::json{{"path", conf_path.string()},
+                                       {"format", "stanford-conf"},
+                                       {"scans", scans},
+                                       {"ground_truth", true}}
+                            .dump(2)
+                            .c_str());
+    return 0;
+  }
+  fmt::print("path:          {}\n", conf_path.string());
+  fmt::print("format:        stanford-conf (per-view range scans with alignment)\n");
+  fmt::print("scans:         {}\n", conf.scans.size());
+  for (const auto& s : conf.scans)
+    fmt::print("  {:<14} {}\n", s.name, std::filesystem::exists(s.file) ? "" : "(missing)");
+  fmt::print("ground truth:  yes, {} scan poses\n", conf.scans.size());
+  return 0;
+}
+
+}  // namespace
+
+void register_info(CLI::App& app, GlobalOptions& global) {
+  auto opt = std::make_shared<InfoOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "info", "Describe an RGB-D sequence (TUM, 7-Scenes, Redwood), a point cloud (PLY, PCD) "
+              "or a Stanford .conf scan set: format, frames, resolution, intrinsics, depth "
+              "range, ground truth");
+  sub->add_option("path", opt->path, "Dataset folder or file")->required();
+  sub->add_flag("--json", opt->json, "Print machine-readable JSON");
+  sub->add_option("--every", opt->every, "Read every N-th depth image for the depth range")
+      ->check(CLI::PositiveNumber);
+  set_runner(sub, [opt, &global]() {
+    const DatasetFormat format = detect_format(opt->path);
+    switch (format) {
+      case DatasetFormat::Tum:
+      case DatasetFormat::SevenScenes:
+      case DatasetFormat::Redwood:
+        return info_sequence(*opt, global);
+      case DatasetFormat::PlyCloud:
+      case DatasetFormat::PcdCloud:
+        return info_cloud(*opt, format);
+      case DatasetFormat::StanfordConf:
+        return info_conf(*opt);
+      case DatasetFormat::Unknown:
+        break;
+    }
+    if (!std::filesystem::exists(opt->path)) throw_input_error(opt->path, "no such file or folder");
+    throw_input_error(opt->path,
+                      "not a recognised dataset (looked for TUM rgb.txt/depth.txt, 7-Scenes "
+                      "frame-*.pose.txt, Redwood color/ + depth/, .ply, .pcd, .conf)");
+  });
+}
+
+}  // namespace locard::cli
