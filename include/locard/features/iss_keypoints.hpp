@@ -2,13 +2,14 @@
 // Intrinsic Shape Signatures keypoints (Zhong 2009, "Intrinsic shape signatures: A shape
 // descriptor for 3D object recognition", section 2.1), in the unweighted form Open3D and PCL
 // use by default:
-//  1. For every point p_i with at least `min_neighbors` neighbours within salient_radius, the
-//     scatter matrix of its neighbours about their mean has eigenvalues l1 >= l2 >= l3.
+//  1. For every point p_i with at least `min_neighbors` points within salient_radius (p_i
+//     itself counted, as in Open3D), the scatter matrix of those points about their mean has
+//     eigenvalues l1 >= l2 >= l3.
 //  2. p_i is salient when l2 / l1 < gamma21 and l3 / l2 < gamma32 (no two-fold ambiguity of
 //     its local frame); its saliency is l3.
 //  3. A salient point is a keypoint when its saliency is the largest among the salient points
 //     within non_max_radius (non-maximum suppression; ties go to the smaller index), and that
-//     neighbourhood also has at least `min_neighbors` points.
+//     neighbourhood also holds at least `min_neighbors` points (p_i counted).
 // Parallel over points; the result does not depend on the thread count.
 
 #include <locard/core/point_cloud.hpp>

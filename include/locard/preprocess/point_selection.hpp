@@ -35,7 +35,7 @@ inline bool is_finite_point(const Eigen::Vector3f& p) { return p.allFinite(); }
 PointCloud select_points(const PointCloud& cloud, std::span<const std::uint32_t> indices);
 
 // Drops the points with a non-finite position; report.non_finite counts them and
-// report.rejected stays 0. Throws InputError if the attribute arrays are out of step.
+// report.rejected stays 0. Throws locard::Error if the attribute arrays are out of step.
 FilterResult remove_non_finite(const PointCloud& cloud);
 
 }  // namespace locard
