@@ -1,0 +1,256 @@
+#include <locard/io/image_io.hpp>
+
+#include <locard/core/error.hpp>
+
+#include "test_support.hpp"
+
+#include <gmock/gmock.h>
+#include <gtest/gtest.h>
+#include <zlib.h>
+
+#include <cstdint>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+namespace locard {
+namespace {
+
+namespace fs = std::filesystem;
+using ::testing::AllOf;
+using ::testing::HasSubstr;
+using ::testing::ThrowsMessage;
+
+fs::path seven_scenes(const std::string& name) {
+  return test::shared_data() / "7scenes-tsdf-fusion" / "data" / name;
+}
+fs::path open3d_rgbd(const std::string& name) {
+  return test::shared_data() / "open3d-testdata" / "RGBD" / name;
+}
+
+std::vector<char> read_bytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void write_bytes(const fs::path& path, const std::vector<char>& bytes) {
+  std::ofstream out(path, std::ios::binary);
+  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+}
+
+// Pseudo-random depth so the PNG does not compress to a few bytes (truncation must hit IDAT).
+DepthImage noisy_depth(int width, int height) {
+  DepthImage depth(width, height);
+  std::uint32_t state = 12345u;
+  for (auto& d : depth.data()) {
+    state = state * 1664525u + 1013904223u;
+    d = static_cast<std::uint16_t>(state >> 16);
+  }
+  return depth;
+}
+
+TEST(ImageIo, ReadsSevenScenesDepthAtKnownPixels) {
+  const fs::path path = seven_scenes("frame-000000.depth.png");
+  const ImageFileInfo info = read_image_info(path);
+  EXPECT_EQ(info.width, 640);
+  EXPECT_EQ(info.height, 480);
+  EXPECT_EQ(info.channels, 1);
+  EXPECT_EQ(info.bit_depth, 16);
+  const DepthImage depth = read_depth_image(path);
+  ASSERT_EQ(depth.width(), 640);
+  ASSERT_EQ(depth.height(), 480);
+  // Values checked with an independent pure-Python PNG decoder.
+  EXPECT_EQ(depth.at(320, 240), 1382);  // millimetres
+  EXPECT_EQ(depth.at(100, 100), 2215);
+  EXPECT_EQ(depth.at(0, 0), 0);
+}
+
+TEST(ImageIo, ReadsTumDepthWithScale5000Values) {
+  const DepthImage depth = read_depth_image(open3d_rgbd("other_formats/TUM_depth.png"));
+  ASSERT_EQ(depth.width(), 640);
+  ASSERT_EQ(depth.height(), 480);
+  EXPECT_EQ(depth.at(320, 240), 10920);  // 10920 / 5000 = 2.184 m
+  EXPECT_EQ(depth.at(100, 100), 11205);
+  EXPECT_DOUBLE_EQ(depth.at(320, 240) / 5000.0, 2.184);
+}
+
+TEST(ImageIo, ReadsJpegColour) {
+  const fs::path path = seven_scenes("frame-000000.color.jpg");
+  const ImageFileInfo info = read_image_info(path);
+  EXPECT_EQ(info.width, 640);
+  EXPECT_EQ(info.height, 480);
+  EXPECT_EQ(info.channels, 3);
+  EXPECT_EQ(info.bit_depth, 8);
+  const ColorImage color = read_color_image(path);
+  ASSERT_EQ(color.width(), 640);
+  ASSERT_EQ(color.height(), 480);
+  double sum[3] = {0, 0, 0};
+  for (int v = 0; v < color.height(); ++v)
+    for (int u = 0; u < color.width(); ++u)
+      for (int c = 0; c < 3; ++c) sum[c] += color.at(u, v, c);
+  const double n = static_cast<double>(color.pixel_count());
+  // libjpeg-turbo, JDCT_ISLOW, fancy upsampling: R 126.78, G 107.16, B 104.43.
+  EXPECT_NEAR(sum[0] / n, 126.78, 0.5);
+  EXPECT_NEAR(sum[1] / n, 107.16, 0.5);
+  EXPECT_NEAR(sum[2] / n, 104.43, 0.5);
+}
+
+TEST(ImageIo, ReadsPngColour) {
+  const ColorImage color = read_color_image(open3d_rgbd("other_formats/TUM_color.png"));
+  EXPECT_EQ(color.width(), 640);
+  EXPECT_EQ(color.height(), 480);
+  EXPECT_EQ(color.at(320, 240, 0), 252);
+  EXPECT_EQ(color.at(320, 240, 1), 252);
+  EXPECT_EQ(color.at(320, 240, 2), 250);
+}
+
+TEST(ImageIo, ColourPngRoundTripIsExact) {
+  const fs::path path = test::scratch_dir() / "color.png";
+  ColorImage image(37, 23);
+  for (int v = 0; v < image.height(); ++v)
+    for (int u = 0; u < image.width(); ++u)
+      for (int c = 0; c < 3; ++c) image.at(u, v, c) = static_cast<std::uint8_t>(u * 7 + v * 13 + c * 101);
+  write_png(path, image);
+  const ImageFileInfo info = read_image_info(path);
+  EXPECT_EQ(info.channels, 3);
+  EXPECT_EQ(info.bit_depth, 8);
+  EXPECT_EQ(read_color_image(path), image);
+  EXPECT_EQ(test::list_folder(path.parent_path()), "color.png\n");  // no temporary left
+}
+
+TEST(ImageIo, DepthPngRoundTripIsExactOverFullRange) {
+  const fs::path path = test::scratch_dir() / "depth.png";
+  DepthImage image = noisy_depth(64, 48);
+  image.at(0, 0) = 0;
+  image.at(1, 0) = 1;
+  image.at(2, 0) = 255;
+  image.at(3, 0) = 256;
+  image.at(4, 0) = 65535;
+  write_png(path, image);
+  const ImageFileInfo info = read_image_info(path);
+  EXPECT_EQ(info.channels, 1);
+  EXPECT_EQ(info.bit_depth, 16);
+  EXPECT_EQ(read_depth_image(path), image);
+}
+
+TEST(ImageIo, DepthIsStoredBigEndianAsPngRequires) {
+  // A 1x1 image: whatever filter libpng picks, the one filtered scanline equals the raw one
+  // (all neighbours are zero), so the inflated IDAT is "<filter byte> 0x01 0x02".
+  const fs::path path = test::scratch_dir() / "one.png";
+  write_png(path, DepthImage(1, 1, 0x0102));
+  const std::vector<char> bytes = read_bytes(path);
+  std::vector<unsigned char> idat;
+  for (std::size_t pos = 8; pos + 12 <= bytes.size();) {
+    const auto byte = [&](std::size_t i) { return static_cast<unsigned char>(bytes[i]); };
+    const std::size_t length = (std::size_t{byte(pos)} << 24) | (std::size_t{byte(pos + 1)} << 16) |
+                               (std::size_t{byte(pos + 2)} << 8) | byte(pos + 3);
+    if (std::string(&bytes[pos + 4], 4) == "IDAT")
+      idat.insert(idat.end(), bytes.begin() + static_cast<std::ptrdiff_t>(pos + 8),
+                  bytes.begin() + static_cast<std::ptrdiff_t>(pos + 8 + length));
+    pos += 12 + length;
+  }
+  unsigned char raw[16] = {};
+  uLongf raw_size = sizeof raw;
+  ASSERT_EQ(uncompress(raw, &raw_size, idat.data(), static_cast<uLong>(idat.size())), Z_OK);
+  ASSERT_EQ(raw_size, 3u);
+  EXPECT_EQ(raw[1], 0x01);
+  EXPECT_EQ(raw[2], 0x02);
+  EXPECT_EQ(read_depth_image(path).at(0, 0), 0x0102);
+}
+
+TEST(ImageIo, GrayPngReadsAsReplicatedRgb) {
+  const fs::path path = test::scratch_dir() / "gray.png";
+  GrayImage gray(5, 4);
+  for (int i = 0; i < 20; ++i) gray.data()[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(i * 12);
+  write_png(path, gray);
+  const ColorImage color = read_color_image(path);
+  ASSERT_EQ(color.width(), 5);
+  ASSERT_EQ(color.height(), 4);
+  for (int v = 0; v < 4; ++v)
+    for (int u = 0; u < 5; ++u)
+      for (int c = 0; c < 3; ++c) EXPECT_EQ(color.at(u, v, c), gray.at(u, v));
+}
+
+TEST(ImageIo, MissingFileNamesTheFile) {
+  const fs::path path = test::scratch_dir() / "nothing-here.png";
+  EXPECT_THAT([&] { read_depth_image(path); },
+              ThrowsMessage<InputError>(AllOf(HasSubstr("nothing-here.png"),
+                                              HasSubstr("No such file"))));
+  EXPECT_THAT([&] { read_color_image(path); },
+              ThrowsMessage<InputError>(HasSubstr("nothing-here.png")));
+  EXPECT_THAT([&] { read_image_info(path); },
+              ThrowsMessage<InputError>(HasSubstr("nothing-here.png")));
+}
+
+TEST(ImageIo, TruncatedPngIsInputError) {
+  const fs::path dir = test::scratch_dir();
+  write_png(dir / "full.png", noisy_depth(128, 96));
+  std::vector<char> bytes = read_bytes(dir / "full.png");
+  bytes.resize(bytes.size() / 2);
+  write_bytes(dir / "half.png", bytes);
+  EXPECT_THAT([&] { read_depth_image(dir / "half.png"); },
+              ThrowsMessage<InputError>(AllOf(HasSubstr("half.png"), HasSubstr("truncated"))));
+  EXPECT_THAT([&] { read_color_image(dir / "half.png"); },
+              ThrowsMessage<InputError>(HasSubstr("half.png")));
+}
+
+TEST(ImageIo, CorruptPngDataIsInputError) {
+  const fs::path dir = test::scratch_dir();
+  write_png(dir / "full.png", noisy_depth(128, 96));
+  std::vector<char> bytes = read_bytes(dir / "full.png");
+  for (std::size_t i = bytes.size() / 2; i < bytes.size() / 2 + 16; ++i) bytes[i] = static_cast<char>(~bytes[i]);
+  write_bytes(dir / "flipped.png", bytes);
+  EXPECT_THAT([&] { read_depth_image(dir / "flipped.png"); },
+              ThrowsMessage<InputError>(HasSubstr("flipped.png")));
+}
+
+TEST(ImageIo, TruncatedJpegIsInputError) {
+  // libjpeg only warns about a truncated file and pads with gray; we refuse it.
+  const fs::path dir = test::scratch_dir();
+  std::vector<char> bytes = read_bytes(seven_scenes("frame-000000.color.jpg"));
+  ASSERT_GT(bytes.size(), 1000u);
+  bytes.resize(bytes.size() / 2);
+  write_bytes(dir / "half.jpg", bytes);
+  EXPECT_THAT([&] { read_color_image(dir / "half.jpg"); },
+              ThrowsMessage<InputError>(AllOf(HasSubstr("half.jpg"), HasSubstr("JPEG"))));
+}
+
+TEST(ImageIo, EightBitDepthIsInputError) {
+  const fs::path path = test::scratch_dir() / "depth8.png";
+  write_png(path, GrayImage(8, 8, 100));
+  EXPECT_THAT([&] { read_depth_image(path); },
+              ThrowsMessage<InputError>(AllOf(HasSubstr("depth8.png"),
+                                              HasSubstr("depth image is 8-bit, expected 16-bit"))));
+}
+
+TEST(ImageIo, ColourOrJpegAsDepthIsInputError) {
+  const fs::path path = test::scratch_dir() / "rgb.png";
+  write_png(path, ColorImage(8, 8, 100));
+  EXPECT_THAT([&] { read_depth_image(path); },
+              ThrowsMessage<InputError>(AllOf(HasSubstr("rgb.png"), HasSubstr("3 channels"))));
+  EXPECT_THAT([&] { read_depth_image(seven_scenes("frame-000000.color.jpg")); },
+              ThrowsMessage<InputError>(HasSubstr("frame-000000.color.jpg")));
+}
+
+TEST(ImageIo, NonImageAndEmptyFilesAreInputErrors) {
+  const fs::path dir = test::scratch_dir();
+  write_bytes(dir / "text.png", {'h', 'e', 'l', 'l', 'o', ' ', 'w', 'o', 'r', 'l', 'd'});
+  write_bytes(dir / "empty.png", {});
+  EXPECT_THAT([&] { read_color_image(dir / "text.png"); },
+              ThrowsMessage<InputError>(AllOf(HasSubstr("text.png"), HasSubstr("not a PNG or JPEG"))));
+  EXPECT_THAT([&] { read_depth_image(dir / "empty.png"); },
+              ThrowsMessage<InputError>(AllOf(HasSubstr("empty.png"), HasSubstr("empty"))));
+}
+
+TEST(ImageIo, WriteIntoMissingFolderOrEmptyImageFails) {
+  const fs::path dir = test::scratch_dir();
+  EXPECT_THROW(write_png(dir / "no-such-folder" / "x.png", DepthImage(4, 4)), InputError);
+  EXPECT_THAT([&] { write_png(dir / "empty.png", DepthImage()); },
+              ThrowsMessage<InputError>(HasSubstr("empty.png")));
+  EXPECT_EQ(test::list_folder(dir), "");
+}
+
+}  // namespace
+}  // namespace locard
