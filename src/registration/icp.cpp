@@ -1,0 +1,622 @@
+// ICP: point-to-point, point-to-plane, coloured (Park et al. 2017). The residuals, Jacobians
+// and frames are derived in include/locard/registration/icp.hpp; comments here point at them.
+#include <locard/registration/icp.hpp>
+
+#include <locard/core/error.hpp>
+#include <locard/core/kdtree.hpp>
+#include <locard/preprocess/normals.hpp>
+#include <locard/preprocess/voxel_grid.hpp>
+#include <locard/registration/rigid_transform.hpp>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <fmt/format.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace locard {
+namespace {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+// Fixed chunk of the deterministic reductions: the split tree depends only on the point
+// count, so the floating-point sums are the same for any thread count.
+constexpr std::size_t kGrain = 1024;
+
+float intensity_of(const Rgb8& c) {
+  return (static_cast<float>(c.r) + static_cast<float>(c.g) + static_cast<float>(c.b)) /
+         (3.f * 255.f);
+}
+
+// Source: finite points, centred at their centroid (float storage, double arithmetic).
+struct PreparedSource {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector3f> points;
+  std::vector<float> intensity;  // coloured ICP only
+  std::size_t non_finite = 0;
+};
+
+// Target: finite points centred at their centroid inside a kd-tree, plus what the method
+// needs per point.
+struct PreparedTarget {
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  KdTree tree;
+  std::vector<Eigen::Vector3f> normals;   // point-to-plane, coloured
+  std::vector<float> intensity;           // coloured
+  std::vector<Eigen::Vector3f> gradient;  // coloured: d_t, Park eq. 10
+  std::size_t non_finite = 0;
+  bool normals_estimated = false;
+};
+
+bool needs_normals(IcpMethod m) { return m != IcpMethod::PointToPoint; }
+
+void check_options(const IcpOptions& o) {
+  const auto bad = [](const std::string& what) { throw InputError("ICP options: " + what); };
+  if (!(o.max_correspondence_distance > 0.0) || !std::isfinite(o.max_correspondence_distance))
+    bad(fmt::format("max_correspondence_distance must be a positive number of metres, got {}",
+                    o.max_correspondence_distance));
+  if (o.kernel.type != RobustKernelType::None &&
+      (!(o.kernel.scale > 0.0) || !std::isfinite(o.kernel.scale)))
+    bad(fmt::format("the {} kernel needs a positive scale, got {}", to_string(o.kernel.type),
+                    o.kernel.scale));
+  if (o.convergence.max_iterations < 0)
+    bad(fmt::format("max_iterations must be >= 0, got {}", o.convergence.max_iterations));
+  if (!(o.lambda_geometric >= 0.0 && o.lambda_geometric <= 1.0))
+    bad(fmt::format("lambda_geometric must be in [0, 1], got {}", o.lambda_geometric));
+  if (o.min_correspondences < 3) bad("min_correspondences must be at least 3");
+}
+
+void check_count(const char* which, std::size_t finite, std::size_t dropped,
+                 std::size_t needed) {
+  if (finite >= needed) return;
+  throw InputError(fmt::format(
+      "ICP: the {} cloud has {} usable point{}{} ; at least {} are needed", which, finite,
+      finite == 1 ? "" : "s",
+      dropped ? fmt::format(" ({} with NaN/Inf coordinates dropped)", dropped) : "", needed));
+}
+
+Eigen::Vector3d centroid_of(const std::vector<Eigen::Vector3f>& pts,
+                            const std::vector<std::uint32_t>& keep) {
+  // Parallel deterministic sum in double.
+  const Eigen::Vector3d sum = tbb::parallel_deterministic_reduce(
+      tbb::blocked_range<std::size_t>(0, keep.size(), 8192), Eigen::Vector3d::Zero().eval(),
+      [&](const tbb::blocked_range<std::size_t>& r, Eigen::Vector3d acc) {
+        for (std::size_t i = r.begin(); i != r.end(); ++i) acc += pts[keep[i]].cast<double>();
+        return acc;
+      },
+      [](const Eigen::Vector3d& a, const Eigen::Vector3d& b) -> Eigen::Vector3d {
+        return a + b;
+      });
+  return keep.empty() ? Eigen::Vector3d::Zero() : (sum / static_cast<double>(keep.size())).eval();
+}
+
+std::vector<std::uint32_t> finite_indices(const PointCloud& cloud, bool with_normals) {
+  std::vector<std::uint32_t> keep;
+  keep.reserve(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    if (!cloud.positions[i].allFinite()) continue;
+    if (with_normals && !cloud.normals[i].allFinite()) continue;
+    keep.push_back(static_cast<std::uint32_t>(i));
+  }
+  return keep;
+}
+
+PreparedSource prepare_source(const PointCloud& cloud, const IcpOptions& o) {
+  cloud.check_consistent();
+  PreparedSource s;
+  const std::vector<std::uint32_t> keep = finite_indices(cloud, false);
+  s.non_finite = cloud.size() - keep.size();
+  check_count("source", keep.size(), s.non_finite, std::max<std::size_t>(o.min_points, 3));
+  s.centroid = centroid_of(cloud.positions, keep);
+  s.points.resize(keep.size());
+  const bool color = o.method == IcpMethod::Colored;
+  if (color) s.intensity.resize(keep.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keep.size(), 4096), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      s.points[i] = (cloud.positions[keep[i]].cast<double>() - s.centroid).cast<float>();
+      if (color) s.intensity[i] = intensity_of(cloud.colors[keep[i]]);
+    }
+  });
+  return s;
+}
+
+// Colour gradient d_t of every target point (Park et al. eq. 10, as Open3D's
+// ComputeColorGradient): least squares over the neighbours p_j of t, projected onto the
+// tangent plane, p'_j = p_j - n (n . (p_j - t)):
+//   minimise sum_j (d . (p'_j - t) - (C(p_j) - C(t)))^2 + ((k - 1) n . d)^2,
+// the last term enforcing d . n = 0. Solved through the 3x3 normal equations; fewer than 4
+// neighbours or a singular system give d = 0 (the point then only constrains geometry).
+void compute_color_gradients(PreparedTarget& t, double radius, int max_neighbors) {
+  const auto& pts = t.tree.points();
+  t.gradient.assign(pts.size(), Eigen::Vector3f::Zero());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pts.size(), 256), [&](const auto& r) {
+    std::vector<Neighbor> nbrs;
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      t.tree.hybrid(pts[i], static_cast<float>(radius), max_neighbors, nbrs);
+      if (nbrs.size() < 4) continue;
+      const Eigen::Vector3d p = pts[i].cast<double>();
+      const Eigen::Vector3d n = t.normals[i].cast<double>();
+      const double ci = t.intensity[i];
+      Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
+      Eigen::Vector3d Atb = Eigen::Vector3d::Zero();
+      for (const Neighbor& nb : nbrs) {
+        const Eigen::Vector3d pj = pts[nb.index].cast<double>();
+        const Eigen::Vector3d a = pj - n * n.dot(pj - p) - p;  // p'_j - t
+        const double b = t.intensity[nb.index] - ci;
+        AtA.noalias() += a * a.transpose();
+        Atb += a * b;
+      }
+      const Eigen::Vector3d c = static_cast<double>(nbrs.size() - 1) * n;  // constraint row
+      AtA.noalias() += c * c.transpose();
+      const Eigen::LDLT<Eigen::Matrix3d> ldlt(AtA);
+      if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) continue;
+      const Eigen::Vector3d d = ldlt.solve(Atb);
+      if (d.allFinite()) t.gradient[i] = d.cast<float>();
+    }
+  });
+}
+
+PreparedTarget prepare_target(const PointCloud& cloud, const IcpOptions& o) {
+  cloud.check_consistent();
+  PreparedTarget t;
+  const bool use_normals = needs_normals(o.method);
+  const bool has_normals = use_normals && cloud.has_normals();
+  const std::vector<std::uint32_t> keep = finite_indices(cloud, has_normals);
+  t.non_finite = cloud.size() - keep.size();
+  check_count("target", keep.size(), t.non_finite, std::max<std::size_t>(o.min_points, 3));
+  t.centroid = centroid_of(cloud.positions, keep);
+  const bool color = o.method == IcpMethod::Colored;
+  std::vector<Eigen::Vector3f> centred(keep.size());
+  if (has_normals) t.normals.resize(keep.size());
+  if (color) t.intensity.resize(keep.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, keep.size(), 4096), [&](const auto& r) {
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      centred[i] = (cloud.positions[keep[i]].cast<double>() - t.centroid).cast<float>();
+      if (has_normals) t.normals[i] = cloud.normals[keep[i]];
+      if (color) t.intensity[i] = intensity_of(cloud.colors[keep[i]]);
+    }
+  });
+  if (use_normals && !has_normals) {
+    // Local PCA normals on the centred points, oriented towards the target frame's origin.
+    PointCloud tmp;
+    tmp.positions = centred;
+    t.tree = KdTree(std::move(centred));
+    NormalOptions nopt;
+    nopt.radius = static_cast<float>(o.normal_radius);
+    nopt.max_neighbors = o.normal_max_neighbors;
+    nopt.orientation = NormalOrientation::TowardsViewpoint;
+    nopt.viewpoint = (-t.centroid).cast<float>();
+    estimate_normals(tmp, nopt, &t.tree);
+    t.normals = std::move(tmp.normals);
+    t.normals_estimated = true;
+  } else {
+    t.tree = KdTree(std::move(centred));
+  }
+  if (color) {
+    const double radius = o.color_gradient_radius > 0.0 ? o.color_gradient_radius
+                                                        : 2.0 * o.max_correspondence_distance;
+    compute_color_gradients(t, radius, o.color_gradient_max_neighbors);
+  }
+  return t;
+}
+
+// Everything one pass over the source accumulates. H is kept upper-triangular during the
+// reduction (rankUpdate) and mirrored before use.
+struct PassSums {
+  Matrix6d H = Matrix6d::Zero();  // Gauss-Newton (point-to-plane, coloured)
+  Vector6d b = Vector6d::Zero();
+  RigidTransformAccumulator kabsch;  // point-to-point step
+  // Point-to-point Hessian moments: sum w, sum w q, sum w q q^T (H = sum w [-[q]x I]^T [..]).
+  double w_sum = 0.0;
+  Eigen::Vector3d wq = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d wqq = Eigen::Matrix3d::Zero();
+  // Information-matrix moments of the matched target points: n, sum t, sum t t^T.
+  Eigen::Vector3d t_sum = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d tt_sum = Eigen::Matrix3d::Zero();
+  double squared_distance = 0.0;  // sum |q - t|^2
+  std::size_t count = 0;
+
+  void join(const PassSums& o) {
+    H += o.H;
+    b += o.b;
+    kabsch.merge(o.kabsch);
+    w_sum += o.w_sum;
+    wq += o.wq;
+    wqq += o.wqq;
+    t_sum += o.t_sum;
+    tt_sum += o.tt_sum;
+    squared_distance += o.squared_distance;
+    count += o.count;
+  }
+};
+
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
+  return m;
+}
+
+// sum_i w_i G_i^T G_i with G_i = [-[p_i]x  I], from the moments W = sum w, m = sum w p,
+// M = sum w p p^T. Blocks: [-[p]x]^T [-[p]x] = |p|^2 I - p p^T, [-[p]x]^T I = [p]x.
+Matrix6d point_hessian(double W, const Eigen::Vector3d& m, const Eigen::Matrix3d& M) {
+  Matrix6d H;
+  H.topLeftCorner<3, 3>() = M.trace() * Eigen::Matrix3d::Identity() - M;
+  H.topRightCorner<3, 3>() = skew(m);
+  H.bottomLeftCorner<3, 3>() = skew(m).transpose();
+  H.bottomRightCorner<3, 3>() = W * Eigen::Matrix3d::Identity();
+  return H;
+}
+
+// A 6x6 matrix in (rotation, translation) order for left perturbations of the centred target
+// frame, expressed in the target frame: with c the target centroid, a point Jacobian becomes
+// [-[q + c]x  I] = [-[q]x  I] A, A = [[I, 0], [-[c]x, I]], so H_target = A^T H_centred A.
+Matrix6d to_target_frame(const Matrix6d& H, const Eigen::Vector3d& c) {
+  Matrix6d A = Matrix6d::Identity();
+  A.bottomLeftCorner<3, 3>() = -skew(c);
+  return A.transpose() * H * A;
+}
+
+struct PassContext {
+  const PreparedSource& source;
+  const PreparedTarget& target;
+  const IcpOptions& options;
+};
+
+// One pass at the estimate T_c (centred frames): correspondences and the sums of the method.
+template <IcpMethod M>
+PassSums run_pass(const PassContext& ctx, const Isometry3d& T_c) {
+  const Eigen::Matrix3d R = T_c.linear();
+  const Eigen::Vector3d tr = T_c.translation();
+  const auto& src = ctx.source.points;
+  const auto& tpts = ctx.target.tree.points();
+  const KdTree& tree = ctx.target.tree;
+  const float max_d = static_cast<float>(ctx.options.max_correspondence_distance);
+  const RobustKernel kernel = ctx.options.kernel;
+  const double sqrt_lg = std::sqrt(ctx.options.lambda_geometric);
+  const double sqrt_lc = std::sqrt(1.0 - ctx.options.lambda_geometric);
+
+  return tbb::parallel_deterministic_reduce(
+      tbb::blocked_range<std::size_t>(0, src.size(), kGrain), PassSums{},
+      [&](const tbb::blocked_range<std::size_t>& r, PassSums acc) {
+        Neighbor nb;
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Eigen::Vector3d q = R * src[i].cast<double>() + tr;
+          if (!tree.nearest(q.cast<float>(), nb, max_d)) continue;
+          const Eigen::Vector3d t = tpts[nb.index].cast<double>();
+          const Eigen::Vector3d diff = q - t;
+          acc.squared_distance += diff.squaredNorm();
+          ++acc.count;
+          acc.t_sum += t;
+          acc.tt_sum.noalias() += t * t.transpose();
+          if constexpr (M == IcpMethod::PointToPoint) {
+            // r = q - t; IRLS weight on |r|.
+            const double w = kernel.weight(diff.norm());
+            acc.kabsch.add(q, t, w);
+            acc.w_sum += w;
+            acc.wq += w * q;
+            acc.wqq.noalias() += (w * q) * q.transpose();
+          } else {
+            // Geometric residual r_G = n . (q - t), J_G = [q x n, n].
+            const Eigen::Vector3d n = ctx.target.normals[nb.index].cast<double>();
+            Vector6d J;
+            double res = n.dot(diff);
+            if constexpr (M == IcpMethod::Colored) {
+              J << sqrt_lg * q.cross(n), sqrt_lg * n;
+              res *= sqrt_lg;
+            } else {
+              J << q.cross(n), n;
+            }
+            double w = kernel.weight(res);
+            acc.H.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
+            acc.b += (w * res) * J;
+            if constexpr (M == IcpMethod::Colored) {
+              // Photometric residual r_C = C(t) + d . (f(q) - t) - C_s, f(q) the projection
+              // of q on the tangent plane of t; dr_C/dq = g^T, g = (I - n n^T) d.
+              const Eigen::Vector3d d = ctx.target.gradient[nb.index].cast<double>();
+              const Eigen::Vector3d proj = diff - n * n.dot(diff);  // f(q) - t
+              const double rc = sqrt_lc * (ctx.target.intensity[nb.index] + d.dot(proj) -
+                                           ctx.source.intensity[i]);
+              const Eigen::Vector3d g = sqrt_lc * (d - n * n.dot(d));
+              J << q.cross(g), g;
+              w = kernel.weight(rc);
+              acc.H.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
+              acc.b += (w * rc) * J;
+            }
+          }
+        }
+        return acc;
+      },
+      [](PassSums a, const PassSums& b) {
+        a.join(b);
+        return a;
+      });
+}
+
+PassSums run_pass(const PassContext& ctx, const Isometry3d& T_c) {
+  switch (ctx.options.method) {
+    case IcpMethod::PointToPoint:
+      return run_pass<IcpMethod::PointToPoint>(ctx, T_c);
+    case IcpMethod::PointToPlane:
+      return run_pass<IcpMethod::PointToPlane>(ctx, T_c);
+    case IcpMethod::Colored:
+      return run_pass<IcpMethod::Colored>(ctx, T_c);
+  }
+  return {};
+}
+
+Matrix6d full_hessian(const PassSums& s, IcpMethod method) {
+  if (method == IcpMethod::PointToPoint) return point_hessian(s.w_sum, s.wq, s.wqq);
+  Matrix6d H = s.H;
+  H.triangularView<Eigen::StrictlyLower>() = H.transpose();
+  return H;
+}
+
+// The update dT from one pass (see icp.hpp), or an error message.
+std::optional<Isometry3d> solve_step(const PassSums& s, IcpMethod method, std::string& why) {
+  if (method == IcpMethod::PointToPoint) {
+    const auto dT = s.kabsch.solve();
+    if (!dT) why = "the correspondences are degenerate (collinear or all weights zero)";
+    return dT;
+  }
+  const Matrix6d H = full_hessian(s, method);
+  // A (numerically) singular H means the geometry leaves a motion unconstrained (a plane
+  // against a plane, a cylinder along its axis): the step would be arbitrary, so say so.
+  const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(H, Eigen::EigenvaluesOnly);
+  const double lmax = eig.eigenvalues()(5), lmin = eig.eigenvalues()(0);
+  if (!(lmax > 0.0) || !(lmin > 1e-12 * lmax)) {
+    why = fmt::format(
+        "the normal equations are singular (eigenvalues {:.3g} .. {:.3g}): the overlap does "
+        "not constrain all six degrees of freedom",
+        lmin, lmax);
+    return std::nullopt;
+  }
+  const Vector6d xi = H.ldlt().solve(-s.b);
+  if (!xi.allFinite()) {
+    why = "the Gauss-Newton step is not finite";
+    return std::nullopt;
+  }
+  // T <- [exp(omega) | v] T (left perturbation, first-order consistent with J).
+  Isometry3d dT = Isometry3d::Identity();
+  const Eigen::Vector3d omega = xi.head<3>();
+  const double angle = omega.norm();
+  if (angle > 0.0) dT.linear() = Eigen::AngleAxisd(angle, omega / angle).toRotationMatrix();
+  dT.translation() = xi.tail<3>();
+  return dT;
+}
+
+double rotation_angle_deg(const Eigen::Matrix3d& R) {
+  const double c = std::clamp((R.trace() - 1.0) / 2.0, -1.0, 1.0);
+  return std::acos(c) * 180.0 / std::numbers::pi;
+}
+
+// T_c = T(-c_t) T_target_source T(c_s) and back.
+Isometry3d to_centred(const Isometry3d& T, const Eigen::Vector3d& ct, const Eigen::Vector3d& cs) {
+  Isometry3d Tc = T;
+  Tc.translation() = T.linear() * cs + T.translation() - ct;
+  return Tc;
+}
+Isometry3d from_centred(const Isometry3d& Tc, const Eigen::Vector3d& ct,
+                        const Eigen::Vector3d& cs) {
+  Isometry3d T = Tc;
+  T.translation() = Tc.translation() + ct - Tc.linear() * cs;
+  return T;
+}
+
+IcpResult run_icp(const PreparedSource& source, const PreparedTarget& target,
+                  const Isometry3d& init_T_target_source, const IcpOptions& o) {
+  IcpResult result;
+  result.method = o.method;
+  result.source_points = source.points.size();
+  result.target_points = target.tree.size();
+  result.source_non_finite = source.non_finite;
+  result.target_non_finite = target.non_finite;
+  result.target_normals_estimated = target.normals_estimated;
+
+  const PassContext ctx{source, target, o};
+  const double n_source = static_cast<double>(source.points.size());
+  Isometry3d T_c = to_centred(init_T_target_source, target.centroid, source.centroid);
+  const auto fitness_of = [&](const PassSums& s) { return s.count / n_source; };
+  const auto rmse_of = [](const PassSums& s) {
+    return s.count ? std::sqrt(s.squared_distance / static_cast<double>(s.count)) : 0.0;
+  };
+
+  PassSums final_sums;
+  double prev_fitness = 0.0, prev_rmse = 0.0;
+  const int max_iter = o.convergence.max_iterations;
+  for (int k = 0;; ++k) {
+    PassSums sums = run_pass(ctx, T_c);
+    const double fit = fitness_of(sums), rmse = rmse_of(sums);
+    if (sums.count < o.min_correspondences) {
+      result.T_target_source = from_centred(T_c, target.centroid, source.centroid);
+      result.fitness = fit;
+      result.inlier_rmse = rmse;
+      result.correspondences = sums.count;
+      result.reason =
+          k == 0 ? fmt::format("{} correspondence{} within {} m at the initial pose (at least "
+                               "{} needed): the clouds do not overlap there",
+                               sums.count, sums.count == 1 ? "" : "s",
+                               o.max_correspondence_distance, o.min_correspondences)
+                 : fmt::format("only {} correspondences left after {} iterations (at least {} "
+                               "needed): ICP diverged",
+                               sums.count, k, o.min_correspondences);
+      return result;
+    }
+    if (k > 0 && std::abs(fit - prev_fitness) < o.convergence.relative_fitness &&
+        std::abs(rmse - prev_rmse) < o.convergence.relative_rmse) {
+      result.converged = true;
+      final_sums = std::move(sums);
+      break;
+    }
+    if (k == max_iter) {
+      final_sums = std::move(sums);
+      break;
+    }
+    std::string why;
+    const auto dT = solve_step(sums, o.method, why);
+    if (!dT) {
+      result.T_target_source = from_centred(T_c, target.centroid, source.centroid);
+      result.fitness = fit;
+      result.inlier_rmse = rmse;
+      result.correspondences = sums.count;
+      result.iterations = k;
+      result.reason = fmt::format("iteration {}: {}", k + 1, why);
+      return result;
+    }
+    T_c = *dT * T_c;
+    // Re-orthonormalise now and then against drift from repeated products.
+    T_c.linear() = Eigen::Quaterniond(T_c.linear()).normalized().toRotationMatrix();
+    result.iterations = k + 1;
+    if (rotation_angle_deg(dT->linear()) < o.convergence.rotation_eps_deg &&
+        dT->translation().norm() < o.convergence.translation_eps_m) {
+      result.converged = true;
+      final_sums = run_pass(ctx, T_c);
+      break;
+    }
+    prev_fitness = fit;
+    prev_rmse = rmse;
+  }
+
+  result.T_target_source = from_centred(T_c, target.centroid, source.centroid);
+  result.correspondences = final_sums.count;
+  result.fitness = fitness_of(final_sums);
+  result.inlier_rmse = rmse_of(final_sums);
+  result.information = to_target_frame(
+      point_hessian(static_cast<double>(final_sums.count), final_sums.t_sum, final_sums.tt_sum),
+      target.centroid);
+  result.hessian = to_target_frame(full_hessian(final_sums, o.method), target.centroid);
+  if (!result.T_target_source.matrix().allFinite()) {
+    result.reason = "the estimate is not finite";
+    return result;
+  }
+  if (final_sums.count < o.min_correspondences) {
+    result.reason = fmt::format("only {} correspondences at the final pose (at least {} needed)",
+                                final_sums.count, o.min_correspondences);
+    return result;
+  }
+  if (result.fitness < o.min_fitness) {
+    result.reason = fmt::format(
+        "fitness {:.4f} is below min_fitness {:.4f}: too few source points lie within {} m of "
+        "the target at the registered pose",
+        result.fitness, o.min_fitness, o.max_correspondence_distance);
+    return result;
+  }
+  result.success = true;
+  return result;
+}
+
+}  // namespace
+
+std::string_view to_string(IcpMethod method) {
+  switch (method) {
+    case IcpMethod::PointToPoint:
+      return "point-to-point";
+    case IcpMethod::PointToPlane:
+      return "point-to-plane";
+    case IcpMethod::Colored:
+      return "colored";
+  }
+  return "point-to-plane";
+}
+
+std::optional<IcpMethod> parse_icp_method(std::string_view name) {
+  if (name == "point-to-point") return IcpMethod::PointToPoint;
+  if (name == "point-to-plane") return IcpMethod::PointToPlane;
+  if (name == "colored" || name == "coloured") return IcpMethod::Colored;
+  return std::nullopt;
+}
+
+IcpResult icp(const PointCloud& source, const PointCloud& target,
+              const Isometry3d& init_T_target_source, const IcpOptions& options) {
+  check_options(options);
+  if (!init_T_target_source.matrix().allFinite())
+    throw InputError("ICP: the initial transform has NaN/Inf entries");
+  if (options.method == IcpMethod::Colored && (!source.has_colors() || !target.has_colors()))
+    throw InputError(fmt::format(
+        "coloured ICP needs colours on both clouds; the {} has none (use point-to-plane)",
+        !source.has_colors() ? (!target.has_colors() ? "source and the target" : "source")
+                             : "target"));
+  const PreparedTarget target_prepared = prepare_target(target, options);
+  const PreparedSource source_prepared = prepare_source(source, options);
+  IcpResult result = run_icp(source_prepared, target_prepared, init_T_target_source, options);
+  result.levels.push_back({0.0, options.max_correspondence_distance, result.source_points,
+                           result.target_points, result.iterations, result.converged,
+                           result.fitness, result.inlier_rmse});
+  return result;
+}
+
+IcpResult icp_multiscale(const PointCloud& source, const PointCloud& target,
+                         const Isometry3d& init_T_target_source, const IcpOptions& options,
+                         const std::vector<IcpScale>& scales) {
+  if (scales.empty()) throw InputError("multi-scale ICP: the schedule has no levels");
+  for (const IcpScale& s : scales)
+    if (!(s.voxel_size >= 0.0) || !std::isfinite(s.voxel_size))
+      throw InputError(fmt::format("multi-scale ICP: voxel size {} is not >= 0", s.voxel_size));
+  Isometry3d T = init_T_target_source;
+  IcpResult result;
+  std::vector<IcpLevelReport> levels;
+  int total_iterations = 0;
+  for (std::size_t level = 0; level < scales.size(); ++level) {
+    const IcpScale& s = scales[level];
+    IcpOptions lo = options;
+    lo.max_correspondence_distance = s.max_correspondence_distance;
+    lo.convergence.max_iterations = s.max_iterations;
+    if (s.voxel_size > 0.0 && options.normal_radius <= 0.0) {
+      lo.normal_radius = 2.0 * s.voxel_size;
+      lo.normal_max_neighbors = 30;
+    }
+    std::size_t source_nf = 0, target_nf = 0;
+    if (s.voxel_size > 0.0) {
+      const VoxelGridResult vs = voxel_down_sample(source, static_cast<float>(s.voxel_size));
+      const VoxelGridResult vt = voxel_down_sample(target, static_cast<float>(s.voxel_size));
+      source_nf = vs.report.non_finite;
+      target_nf = vt.report.non_finite;
+      result = icp(vs.cloud, vt.cloud, T, lo);
+    } else {
+      result = icp(source, target, T, lo);
+      source_nf = result.source_non_finite;
+      target_nf = result.target_non_finite;
+    }
+    result.source_non_finite = source_nf;
+    result.target_non_finite = target_nf;
+    total_iterations += result.iterations;
+    levels.push_back({s.voxel_size, s.max_correspondence_distance, result.source_points,
+                      result.target_points, result.iterations, result.converged, result.fitness,
+                      result.inlier_rmse});
+    if (!result.success) {
+      result.reason = fmt::format("level {} of {} (voxel {} m): {}", level + 1, scales.size(),
+                                  s.voxel_size, result.reason);
+      break;
+    }
+    T = result.T_target_source;
+  }
+  result.iterations = total_iterations;
+  result.levels = std::move(levels);
+  return result;
+}
+
+Eigen::Matrix<double, 6, 6> information_matrix(const PointCloud& source,
+                                               const PointCloud& target,
+                                               const Isometry3d& T_target_source,
+                                               double max_distance) {
+  IcpOptions o;
+  o.method = IcpMethod::PointToPoint;
+  o.max_correspondence_distance = max_distance;
+  o.min_points = 1;
+  check_options(o);
+  const PreparedTarget t = prepare_target(target, o);
+  const PreparedSource s = prepare_source(source, o);
+  const PassContext ctx{s, t, o};
+  const PassSums sums =
+      run_pass<IcpMethod::PointToPoint>(ctx, to_centred(T_target_source, t.centroid, s.centroid));
+  return to_target_frame(point_hessian(static_cast<double>(sums.count), sums.t_sum, sums.tt_sum),
+                         t.centroid);
+}
+
+}  // namespace locard
