@@ -42,8 +42,9 @@ LocalFrame fit_plane(const std::vector<Eigen::Vector3f>& points,
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver;
   solver.computeDirect(covariance);  // closed form; eigenvalues ascending
   const Eigen::Vector3d lambda = solver.eigenvalues();
-  // Rank < 2 (all neighbours on one line or one spot): no plane to speak of.
-  if (!(lambda(1) > 1e-12 * lambda(2)) || !(lambda(2) > 0.0)) return frame;
+  // Rank < 2 (all neighbours on one line or one spot): no plane to speak of. The closed-form
+  // solver's eigenvalues carry a relative error near 1e-8, hence the margin.
+  if (!(lambda(2) > 0.0) || !(lambda(1) > 1e-6 * lambda(2))) return frame;
   frame.normal = solver.eigenvectors().col(0).normalized().cast<float>();
   // Surface variation (Pauly et al. 2002, eq. 4).
   frame.curvature = static_cast<float>(lambda(0) / lambda.sum());
