@@ -3,6 +3,7 @@
 #include <locard/core/error.hpp>
 #include <locard/core/kdtree.hpp>
 
+#include <Eigen/Geometry>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
