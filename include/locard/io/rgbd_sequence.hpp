@@ -10,6 +10,7 @@
 #include <locard/core/pose.hpp>
 #include <locard/core/rgbd_frame.hpp>
 
+#include <cstddef>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -54,6 +55,8 @@ struct RgbdSequence {
   CameraIntrinsics intrinsics;
   std::string intrinsics_source;  // "camera-intrinsics.txt", "preset tum_freiburg1", ...
   double depth_scale = 1000.0;
+  std::string ground_truth_source;  // file(s) the ground truth came from; empty when none
+  std::size_t dropped_frames = 0;   // TUM: depth frames without a colour match in tolerance
   std::vector<FrameEntry> frames;  // frames with images, in capture order
   Trajectory ground_truth;         // every ground-truth pose the dataset has (may be more
                                    // poses than frames, e.g. 1000 poses for 374 7-Scenes frames)
@@ -78,6 +81,15 @@ RgbdSequence read_redwood_sequence(const std::filesystem::path& folder,
 // ({"width","height","intrinsic_matrix": column-major 3x3}) and a plain 3x3 K text file
 // (7-Scenes camera-intrinsics.txt; width/height then come from the first image).
 CameraIntrinsics read_intrinsics_json(const std::filesystem::path& path);
+// As read_intrinsics_json, plus the depth scale when the file states one (Locard's format).
+struct IntrinsicsFile {
+  CameraIntrinsics intrinsics;
+  std::optional<double> depth_scale;
+};
+IntrinsicsFile read_intrinsics_json_with_scale(const std::filesystem::path& path);
+// A plain 3x3 K, row-major, whitespace-separated; the image size is given by the caller.
+CameraIntrinsics read_intrinsics_matrix_txt(const std::filesystem::path& path, int width,
+                                            int height);
 void write_intrinsics_json(const std::filesystem::path& path, const CameraIntrinsics& intrinsics,
                            double depth_scale);
 
