@@ -7,6 +7,8 @@ Run with Debian's interpreter (/usr/bin/python3), which has python3-open3d.
       CLOUD is a PLY with normals (or an .xyzn text file). Computes Open3D's FPFH with the
       cloud's own normals and writes the descriptors to OUT as raw little-endian float32,
       33 per point, in point order.
+  open3d_features.py iss   CLOUD SALIENT_RADIUS NON_MAX_RADIUS GAMMA21 GAMMA32 MIN_NEIGHBORS OUT
+      Open3D's ISS keypoints; writes their positions to OUT as raw float32 x y z triples.
   open3d_features.py bench CLOUD NORMAL_RADIUS NORMAL_MAX_NN FPFH_RADIUS FPFH_MAX_NN REPEATS
       Times normals (KDTreeSearchParamHybrid, oriented towards the origin like Locard's
       default) followed by FPFH, best of REPEATS by time.perf_counter, and prints JSON.
@@ -32,6 +34,15 @@ def fpfh(path, radius, max_nn, out):
         cloud, o3d.geometry.KDTreeSearchParamHybrid(radius=radius, max_nn=max_nn))
     np.asarray(feature.data).T.astype("<f4").tofile(out)
     print(json.dumps({"points": len(cloud.points)}))
+
+
+def iss(path, salient_radius, non_max_radius, gamma21, gamma32, min_neighbors, out):
+    cloud = read(path)
+    keypoints = o3d.geometry.keypoint.compute_iss_keypoints(
+        cloud, salient_radius=salient_radius, non_max_radius=non_max_radius, gamma_21=gamma21,
+        gamma_32=gamma32, min_neighbors=min_neighbors)
+    np.asarray(keypoints.points).astype("<f4").tofile(out)
+    print(json.dumps({"keypoints": len(keypoints.points)}))
 
 
 def bench(path, normal_radius, normal_max_nn, fpfh_radius, fpfh_max_nn, repeats):
@@ -61,6 +72,9 @@ def main():
     mode = sys.argv[1]
     if mode == "fpfh":
         fpfh(sys.argv[2], float(sys.argv[3]), int(sys.argv[4]), sys.argv[5])
+    elif mode == "iss":
+        iss(sys.argv[2], float(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5]),
+            float(sys.argv[6]), int(sys.argv[7]), sys.argv[8])
     elif mode == "bench":
         bench(sys.argv[2], float(sys.argv[3]), int(sys.argv[4]), float(sys.argv[5]),
               int(sys.argv[6]), int(sys.argv[7]))
