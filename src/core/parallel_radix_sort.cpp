@@ -4,11 +4,12 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <memory>
+#include <vector>
 
 namespace locard::detail {
 
-void parallel_radix_sort(std::vector<std::uint64_t>& items, int low_bit, int key_bits) {
-  const std::size_t n = items.size();
+void parallel_radix_sort(std::uint64_t* items, std::size_t n, int low_bit, int key_bits) {
   if (n < 2 || key_bits <= 0) return;
   const int passes = (key_bits + 10) / 11;
   const int digit_bits = (key_bits + passes - 1) / passes;
@@ -21,10 +22,11 @@ void parallel_radix_sort(std::vector<std::uint64_t>& items, int low_bit, int key
   const std::size_t chunks = std::clamp<std::size_t>(n / 16384, 1, max_chunks);
   const std::size_t chunk_size = (n + chunks - 1) / chunks;
 
-  std::vector<std::uint64_t> scratch(n);
+  // Uninitialised scratch: every slot is written by the first scatter.
+  const auto scratch = std::make_unique_for_overwrite<std::uint64_t[]>(n);
   std::vector<std::size_t> offsets(chunks * buckets);  // [chunk][digit]
-  std::uint64_t* source = items.data();
-  std::uint64_t* target = scratch.data();
+  std::uint64_t* source = items;
+  std::uint64_t* target = scratch.get();
 
   for (int pass = 0; pass < passes; ++pass) {
     const int shift = low_bit + pass * digit_bits;
@@ -55,7 +57,7 @@ void parallel_radix_sort(std::vector<std::uint64_t>& items, int low_bit, int key
     });
     std::swap(source, target);
   }
-  if (source != items.data()) std::copy(source, source + n, items.data());
+  if (source != items) std::copy(source, source + n, items);
 }
 
 }  // namespace locard::detail

@@ -14,6 +14,7 @@
 #include <bit>
 #include <cmath>
 #include <limits>
+#include <memory>
 
 namespace locard {
 
@@ -21,15 +22,23 @@ namespace {
 
 constexpr double kMaxVoxelsPerAxis = double(1 << 21);
 
-// Voxel coordinate of p along each axis: floor(p / voxel_size), in double.
-Eigen::Vector3d voxel_coordinates(const Eigen::Vector3f& p, double voxel_size) {
-  return Eigen::Vector3d(std::floor(p.x() / voxel_size), std::floor(p.y() / voxel_size),
-                         std::floor(p.z() / voxel_size));
+// floor(x) for |x| < 2^62 without a libm call (x86-64's baseline has no SSE4.1 round).
+double fast_floor(double x) {
+  const double truncated = static_cast<double>(static_cast<std::int64_t>(x));
+  return truncated > x ? truncated - 1.0 : truncated;
 }
 
+// Voxel coordinate of p along each axis: floor(p / voxel_size), in double.
+Eigen::Vector3d voxel_coordinates(const Eigen::Vector3f& p, double voxel_size) {
+  return Eigen::Vector3d(fast_floor(p.x() / voxel_size), fast_floor(p.y() / voxel_size),
+                         fast_floor(p.z() / voxel_size));
+}
+
+// Bounds of the finite positions. floor(p / v) is monotonic in p, so the voxel coordinate
+// bounds are those of the position bounds: one cheap float pass, no division per point.
 struct Bounds {
-  Eigen::Vector3d min = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
-  Eigen::Vector3d max = Eigen::Vector3d::Constant(-std::numeric_limits<double>::infinity());
+  Eigen::Vector3f min = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
+  Eigen::Vector3f max = Eigen::Vector3f::Constant(-std::numeric_limits<float>::infinity());
   std::size_t non_finite = 0;
   void join(const Bounds& other) {
     min = min.cwiseMin(other.min);
@@ -38,9 +47,9 @@ struct Bounds {
   }
 };
 
-Bounds voxel_bounds(const PointCloud& cloud, double voxel_size) {
+Bounds position_bounds(const PointCloud& cloud) {
   return tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, cloud.size(), 16384), Bounds{},
+      tbb::blocked_range<std::size_t>(0, cloud.size(), 65536), Bounds{},
       [&](const auto& range, Bounds bounds) {
         for (std::size_t i = range.begin(); i != range.end(); ++i) {
           const Eigen::Vector3f& p = cloud.positions[i];
@@ -48,9 +57,8 @@ Bounds voxel_bounds(const PointCloud& cloud, double voxel_size) {
             ++bounds.non_finite;
             continue;
           }
-          const Eigen::Vector3d v = voxel_coordinates(p, voxel_size);
-          bounds.min = bounds.min.cwiseMin(v);
-          bounds.max = bounds.max.cwiseMax(v);
+          bounds.min = bounds.min.cwiseMin(p);
+          bounds.max = bounds.max.cwiseMax(p);
         }
         return bounds;
       },
@@ -76,11 +84,11 @@ struct KeyGrid {
 
 // Sorted (key, point index) pairs, whichever way they were stored.
 struct SortedPoints {
-  std::vector<std::uint64_t> packed;                             // key << 32 | index
+  std::unique_ptr<std::uint64_t[]> packed;                       // key << 32 | index
   std::vector<std::pair<std::uint64_t, std::uint32_t>> wide;     // when keys need > 32 bits
-  std::uint64_t key(std::size_t i) const { return packed.empty() ? wide[i].first : packed[i] >> 32; }
+  std::uint64_t key(std::size_t i) const { return packed ? packed[i] >> 32 : wide[i].first; }
   std::uint32_t index(std::size_t i) const {
-    return packed.empty() ? wide[i].second : static_cast<std::uint32_t>(packed[i]);
+    return packed ? static_cast<std::uint32_t>(packed[i]) : wide[i].second;
   }
 };
 
@@ -90,13 +98,13 @@ SortedPoints sort_by_voxel(const PointCloud& cloud, const KeyGrid& grid, double 
   SortedPoints sorted;
   if (key_bits <= 32) {
     // Stable radix sort on the key bits: points of a voxel stay in input order.
-    sorted.packed.resize(n);
+    sorted.packed = std::make_unique_for_overwrite<std::uint64_t[]>(n);
     tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 16384), [&](const auto& range) {
       for (std::size_t i = range.begin(); i != range.end(); ++i) {
         sorted.packed[i] = (grid.key(cloud.positions[i], voxel_size) << 32) | i;
       }
     });
-    detail::parallel_radix_sort(sorted.packed, 32, key_bits);
+    detail::parallel_radix_sort(sorted.packed.get(), n, 32, key_bits);
   } else {
     // Sparse, very large grids: comparison sort on (key, index), unique hence deterministic.
     sorted.wide.resize(n);
@@ -148,20 +156,28 @@ VoxelGridResult voxel_down_sample(const PointCloud& cloud, float voxel_size) {
   VoxelGridResult result;
   result.report.input_points = cloud.size();
 
-  const Bounds bounds = voxel_bounds(cloud, voxel);
+  const Bounds bounds = position_bounds(cloud);
   result.report.non_finite = bounds.non_finite;
   const std::size_t valid = cloud.size() - bounds.non_finite;
   if (valid == 0) return result;
 
-  const Eigen::Vector3d extent = bounds.max - bounds.min + Eigen::Vector3d::Ones();
-  if ((extent.array() > kMaxVoxelsPerAxis).any()) {
+  // Checked before fast_floor's range matters: huge coordinates give huge extents.
+  const Eigen::Vector3d min_voxel(std::floor(bounds.min.x() / voxel),
+                                  std::floor(bounds.min.y() / voxel),
+                                  std::floor(bounds.min.z() / voxel));
+  const Eigen::Vector3d max_voxel(std::floor(bounds.max.x() / voxel),
+                                  std::floor(bounds.max.y() / voxel),
+                                  std::floor(bounds.max.z() / voxel));
+  const Eigen::Vector3d extent = max_voxel - min_voxel + Eigen::Vector3d::Ones();
+  if ((extent.array() > kMaxVoxelsPerAxis).any() ||
+      (min_voxel.array().abs() > 0x1p61).any() || (max_voxel.array().abs() > 0x1p61).any()) {
     throw InputError(fmt::format(
         "voxel down-sampling: a voxel size of {} m gives {:.0f} x {:.0f} x {:.0f} voxels; at most "
         "{:.0f} per axis are supported (use a larger voxel or crop the cloud)",
         voxel_size, extent.x(), extent.y(), extent.z(), kMaxVoxelsPerAxis));
   }
   KeyGrid grid;
-  grid.origin = bounds.min;
+  grid.origin = min_voxel;
   grid.ny = static_cast<std::uint64_t>(extent.y());
   grid.nz = static_cast<std::uint64_t>(extent.z());
   grid.sentinel = static_cast<std::uint64_t>(extent.x()) * grid.ny * grid.nz;

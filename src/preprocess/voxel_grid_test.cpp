@@ -187,6 +187,9 @@ TEST(VoxelGrid, RejectsBadVoxelSizes) {
   EXPECT_THROW(voxel_down_sample(cloud, -1.f), InputError);
   EXPECT_THROW(voxel_down_sample(cloud, std::numeric_limits<float>::quiet_NaN()), InputError);
   EXPECT_THROW(voxel_down_sample(cloud, 1e-7f), InputError);  // 2e7 voxels along an axis
+  PointCloud far;  // one voxel wide, but 1e33 voxels from the origin
+  far.positions.assign(2, Eigen::Vector3f(1e30f, 0.f, 0.f));
+  EXPECT_THROW(voxel_down_sample(far, 1e-3f), InputError);
 }
 
 }  // namespace
