@@ -98,7 +98,7 @@ struct KdTree::Impl {
     if (!tree) return 0;
     detail::InclusiveRadiusSet set(max_distance_sq, out);
     tree->findNeighbors(set, query.data(), nanoflann::SearchParams());
-    std::sort(out.begin(), out.end(), detail::neighbor_less);
+    std::sort(out.begin(), out.end(), detail::NeighborLess{});
     return out.size();
   }
 };

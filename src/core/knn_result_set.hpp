@@ -75,8 +75,11 @@ class InclusiveRadiusSet {
   std::vector<Neighbor>& out_;
 };
 
-inline bool neighbor_less(const Neighbor& a, const Neighbor& b) {
-  return ranks_before(a.squared_distance, a.index, b);
-}
+// Ranking order as a function object (inlined by std::sort, unlike a function pointer).
+struct NeighborLess {
+  bool operator()(const Neighbor& a, const Neighbor& b) const {
+    return ranks_before(a.squared_distance, a.index, b);
+  }
+};
 
 }  // namespace locard::detail

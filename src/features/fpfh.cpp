@@ -3,6 +3,8 @@
 #include <locard/core/error.hpp>
 #include <locard/core/kdtree.hpp>
 
+#include "features/fast_atan2.hpp"
+
 #include <Eigen/Geometry>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
@@ -48,7 +50,7 @@ Eigen::Vector3f pair_features(const Eigen::Vector3f& p1, const Eigen::Vector3f& 
   v /= v_norm;
   const Eigen::Vector3f w = u->cross(v);
   const float alpha = v.dot(*target_normal);
-  const float theta = std::atan2(w.dot(*target_normal), u->dot(*target_normal));
+  const float theta = detail::fast_atan2(w.dot(*target_normal), u->dot(*target_normal));
   return {theta, alpha, phi};
 }
 

@@ -8,6 +8,7 @@
 #include <locard/preprocess/normals.hpp>
 #include <locard/preprocess/voxel_grid.hpp>
 
+#include "features/fast_atan2.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -135,6 +136,23 @@ TEST(Fpfh, SubsetEqualsFullComputationAndBinsSumTo200) {
   }
   tbb::global_control single(tbb::global_control::max_allowed_parallelism, 1);
   EXPECT_EQ(compute_fpfh(cloud, FpfhOptions{kFpfhRadius, 100}), all);
+}
+
+TEST(Fpfh, FastAtan2MatchesStdAtan2) {
+  double worst = 0.0;
+  for (int i = 0; i < 200000; ++i) {
+    const double a = -M_PI + 2 * M_PI * i / 200000.0;
+    for (float r : {1e-3f, 1.f, 7.f}) {
+      const float y = r * static_cast<float>(std::sin(a)), x = r * static_cast<float>(std::cos(a));
+      worst = std::max(worst, std::abs(detail::fast_atan2(y, x) - std::atan2(double{y}, double{x})));
+    }
+  }
+  EXPECT_LT(worst, 3e-7);
+  for (float y : {0.f, -0.f, 1.f, -1.f}) {
+    for (float x : {0.f, -0.f, 1.f, -1.f}) {
+      EXPECT_NEAR(detail::fast_atan2(y, x), std::atan2(y, x), 1e-7f) << y << " " << x;
+    }
+  }
 }
 
 TEST(Fpfh, IsolatedPointsGetZerosAndBadInputIsRejected) {
