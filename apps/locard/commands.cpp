@@ -17,6 +17,8 @@ void set_runner(CLI::App* subcommand, CommandRunner runner) {
 void register_all(CLI::App& app, GlobalOptions& global) {
   register_info(app, global);
   register_convert(app, global);
+  register_register(app, global);
+  register_scan_sim(app, global);
 }
 
 int run_selected(CLI::App& app) {

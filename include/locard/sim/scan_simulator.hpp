@@ -1,0 +1,38 @@
+#pragma once
+// A whole simulated scan of a scene: the ground-truth mesh, the tripod trajectory and the
+// sensor, ready to render any of its views. Rendering is thread-safe and deterministic: view i
+// is the same bytes whichever thread renders it, in whatever order.
+
+#include <locard/core/pose.hpp>
+#include <locard/sim/kinect_v2_model.hpp>
+#include <locard/sim/measurements.hpp>
+#include <locard/sim/scene.hpp>
+#include <locard/sim/view_renderer.hpp>
+
+#include <cstddef>
+
+namespace locard::sim {
+
+class ScanSimulator {
+ public:
+  // Builds the mesh and BVH and plans the views. When scene.scanner.noise is false the model's
+  // random effects are switched off (its intrinsics and range stay).
+  explicit ScanSimulator(Scene scene, const KinectV2Model& model = {});
+
+  const Scene& scene() const { return scene_; }
+  const KinectV2Model& model() const { return model_; }
+  const ViewRenderer& renderer() const { return renderer_; }
+  const Trajectory& trajectory() const { return trajectory_; }  // exact T_world_camera
+  std::size_t view_count() const { return trajectory_.size(); }
+  std::vector<Measurement> measurements() const { return scene_measurements(scene_); }
+
+  SensorFrame render(std::size_t view, bool color_hd = false) const;
+
+ private:
+  Scene scene_;
+  KinectV2Model model_;
+  ViewRenderer renderer_;
+  Trajectory trajectory_;
+};
+
+}  // namespace locard::sim

@@ -1,0 +1,108 @@
+#pragma once
+// A simulated crime scene as described by a scene file (docs/scene-format.md): a room, the
+// objects in it, the measurements an investigator would take with a tape, and the tripod scan
+// that captures it.
+//
+// World frame: z up, floor at z = 0, room centred on x = y = 0, metres. Boxes are given by
+// their centre, full size (x, y, z extents before yaw) and a yaw about +z (counter-clockwise
+// seen from above). Cylinders stand on their axis (+z), centred on `center`. Meshes are
+// scaled, turned by yaw and moved so that their bounding-box centre lies on `center`.
+
+#include <locard/core/point_cloud.hpp>
+#include <locard/core/triangle_mesh.hpp>
+
+#include <Eigen/Core>
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace locard::sim {
+
+// Procedural surface detail, evaluated at the hit point so colour carries keypoints.
+enum class Texture { Plain, Checker, Noise };
+
+std::string_view to_string(Texture texture);
+
+enum class ShapeKind { Box, Cylinder, Mesh };
+
+std::string_view to_string(ShapeKind shape);
+
+struct RoomSpec {
+  Eigen::Vector3d size{4.0, 4.0, 2.6};  // width (x), depth (y), height (z)
+  Rgb8 wall_color{205, 195, 175};
+  Rgb8 floor_color{120, 90, 60};
+  Rgb8 ceiling_color{235, 235, 235};
+  Texture texture = Texture::Plain;
+  double texture_scale = 0.05;  // metres: checker cell or noise feature size
+};
+
+struct SceneObject {
+  std::string name;
+  ShapeKind shape = ShapeKind::Box;
+  Eigen::Vector3d center = Eigen::Vector3d::Zero();
+  double yaw_deg = 0.0;
+  Eigen::Vector3d size = Eigen::Vector3d::Zero();  // Box: full extents before yaw
+  double radius = 0.0;                             // Cylinder
+  double height = 0.0;                             // Cylinder
+  int segments = 48;                               // Cylinder facets around the axis
+  std::filesystem::path file;                      // Mesh: PLY, resolved against the scene file
+  double scale = 1.0;                              // Mesh
+  TriangleMesh mesh;                               // Mesh: as read from `file` (object frame)
+  Rgb8 color{180, 180, 180};
+  bool has_color = false;  // Mesh: false keeps the PLY's own vertex colours when it has them
+  Texture texture = Texture::Plain;
+  double texture_scale = 0.05;
+};
+
+// Two points on surfaces and the distance between them: the ground truth a later stage has to
+// reproduce from the reconstruction.
+struct Measurement {
+  std::string name;
+  Eigen::Vector3d a = Eigen::Vector3d::Zero();
+  Eigen::Vector3d b = Eigen::Vector3d::Zero();
+  bool derived = false;  // made up by Locard because the scene listed none
+
+  double distance() const { return (b - a).norm(); }
+};
+
+// Tripod scan: `views` poses evenly spaced over 360 degrees of yaw for every pitch row, each
+// disturbed by seeded jitter as a hand turning a tripod head would.
+struct ScannerSpec {
+  std::string model = "kinect_v2";
+  Eigen::Vector3d position{0.0, 0.0, 1.2};
+  int views = 50;                         // per pitch row
+  std::vector<double> pitch_deg{0.0};     // one row per entry; positive looks up
+  double yaw_jitter_deg = 1.0;            // standard deviation
+  double position_jitter_m = 0.005;      // standard deviation, per axis
+  std::uint64_t seed = 1;
+  bool noise = true;                      // false: exact depth and colour
+};
+
+struct Scene {
+  std::string name;
+  std::filesystem::path source;  // file it came from, or "built-in:<name>"
+  std::string source_text;       // the scene JSON as read, kept for provenance
+  RoomSpec room;
+  std::vector<SceneObject> objects;
+  std::vector<Measurement> measurements;  // as listed in the file (may be empty)
+  ScannerSpec scanner;
+};
+
+// Reads and validates a scene file; mesh objects' PLY files are read too, relative to the
+// scene file's folder. Throws InputError naming the file and the offending key.
+Scene read_scene(const std::filesystem::path& path);
+
+// Same from text; `source` names it in errors, `base_dir` resolves mesh files.
+Scene parse_scene(std::string_view json_text, const std::filesystem::path& source,
+                  const std::filesystem::path& base_dir = {});
+
+// Scenes compiled into Locard, so `locard scan-sim` works with no data at all.
+std::vector<std::string> builtin_scene_names();
+// The JSON text of a built-in scene; throws InputError listing the known names.
+std::string_view builtin_scene_json(std::string_view name);
+Scene builtin_scene(std::string_view name);
+
+}  // namespace locard::sim

@@ -1,0 +1,24 @@
+#include <locard/sim/scan_simulator.hpp>
+
+#include <locard/core/error.hpp>
+#include <locard/sim/scan_protocol.hpp>
+
+#include <string>
+
+namespace locard::sim {
+
+ScanSimulator::ScanSimulator(Scene scene, const KinectV2Model& model)
+    : scene_(std::move(scene)),
+      model_(scene_.scanner.noise ? model : model.without_noise()),
+      renderer_(build_scene_mesh(scene_)),
+      trajectory_(tripod_scan_trajectory(scene_.scanner)) {}
+
+SensorFrame ScanSimulator::render(std::size_t view, bool color_hd) const {
+  if (view >= trajectory_.size())
+    throw Error("ScanSimulator: view " + std::to_string(view) + " out of range (" +
+                std::to_string(trajectory_.size()) + " views)");
+  return renderer_.render(model_, trajectory_[view].T_world_camera, scene_.scanner.seed, view,
+                          color_hd);
+}
+
+}  // namespace locard::sim
