@@ -287,32 +287,35 @@ void visit_type(const PcdField& field, F&& f) {
 class CloudStore {
  public:
   CloudStore(PointCloud& cloud, const Layout& layout, std::size_t n) : cloud_(cloud), layout_(layout) {
-    cloud.positions.assign(n, Eigen::Vector3f::Zero());
-    if (layout.normals) cloud.normals.assign(n, Eigen::Vector3f::Zero());
+    // resize leaves Eigen vectors uninitialised: every x/y/z (normal_*) column overwrites them.
+    cloud.positions.resize(n);
+    if (layout.normals) cloud.normals.resize(n);
     if (layout.colors) cloud.colors.assign(n, Rgb8{});
     for (const auto& name : layout.scalar_names) cloud.scalars.push_back({name, std::vector<float>(n)});
   }
 
-  // Field `f` of point i sits at base + i * stride (host byte order, as PCL writes).
-  void set_column(std::size_t f, const PcdField& field, const char* base, std::size_t stride) {
+  // Field `f` of point i sits at base + i * stride (host byte order, as PCL writes); decodes
+  // points [begin, end).
+  void set_column(std::size_t f, const PcdField& field, const char* base, std::size_t stride,
+                  std::size_t begin, std::size_t end) {
     const Target t = layout_.targets[f];
-    const std::size_t n = cloud_.positions.size();
     if (t.slot == Slot::Skip) return;
     if (t.slot == Slot::Rgb) {
-      for (std::size_t i = 0; i < n; ++i) cloud_.colors[i] = unpack_rgb(load<std::uint32_t>(base + i * stride));
+      for (std::size_t i = begin; i < end; ++i)
+        cloud_.colors[i] = unpack_rgb(load<std::uint32_t>(base + i * stride));
       return;
     }
     visit_type(field, [&](auto tag) {
       using T = decltype(tag);
       if (t.slot == Slot::Position) {
-        for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t i = begin; i < end; ++i)
           cloud_.positions[i][t.index] = static_cast<float>(load<T>(base + i * stride));
       } else if (t.slot == Slot::Normal) {
-        for (std::size_t i = 0; i < n; ++i)
+        for (std::size_t i = begin; i < end; ++i)
           cloud_.normals[i][t.index] = static_cast<float>(load<T>(base + i * stride));
       } else {
         float* out = cloud_.scalars[t.index].values.data();
-        for (std::size_t i = 0; i < n; ++i) out[i] = static_cast<float>(load<T>(base + i * stride));
+        for (std::size_t i = begin; i < end; ++i) out[i] = static_cast<float>(load<T>(base + i * stride));
       }
     });
   }
@@ -374,8 +377,13 @@ void check_body_size(const fs::path& path, const PcdHeader& h, std::string_view 
 }
 
 void read_binary(const PcdHeader& h, std::string_view body, CloudStore& store) {
-  for (std::size_t f = 0; f < h.fields.size(); ++f)
-    store.set_column(f, h.fields[f], body.data() + h.fields[f].offset, h.point_size);
+  // Column by column within blocks that stay in cache: one pass over the file's bytes.
+  constexpr std::size_t kBlock = 4096;
+  for (std::size_t begin = 0; begin < h.points; begin += kBlock) {
+    const std::size_t end = std::min(h.points, begin + kBlock);
+    for (std::size_t f = 0; f < h.fields.size(); ++f)
+      store.set_column(f, h.fields[f], body.data() + h.fields[f].offset, h.point_size, begin, end);
+  }
 }
 
 void read_compressed(const fs::path& path, const PcdHeader& h, std::string_view body, CloudStore& store) {
@@ -396,7 +404,7 @@ void read_compressed(const fs::path& path, const PcdHeader& h, std::string_view 
   const char* base = reinterpret_cast<const char*>(raw->data());
   for (std::size_t f = 0; f < h.fields.size(); ++f) {
     if (h.fields[f].name == "_") continue;
-    store.set_column(f, h.fields[f], base, h.fields[f].bytes());
+    store.set_column(f, h.fields[f], base, h.fields[f].bytes(), 0, h.points);
     base += h.points * h.fields[f].bytes();
   }
 }

@@ -285,8 +285,9 @@ class VertexStore {
   VertexStore(PointCloud& cloud, const VertexLayout& layout, const PlyElement& vertex)
       : cloud_(cloud), layout_(layout), vertex_(vertex) {
     const std::size_t n = vertex.count;
-    cloud.positions.assign(n, Eigen::Vector3f::Zero());
-    if (layout.normals) cloud.normals.assign(n, Eigen::Vector3f::Zero());
+    // resize leaves Eigen vectors uninitialised: every x/y/z (nx/ny/nz) column overwrites them.
+    cloud.positions.resize(n);
+    if (layout.normals) cloud.normals.resize(n);
     if (layout.colors) cloud.colors.assign(n, Rgb8{});
     for (const auto& name : layout.scalar_names)
       cloud.scalars.push_back({name, std::vector<float>(n, 0.0f)});
@@ -303,30 +304,31 @@ class VertexStore {
     }
   }
 
-  // Decodes one fixed-offset binary column for all vertices: the loop is compiled per type.
-  void set_column(std::size_t prop, const char* base, std::size_t stride, bool swap) {
+  // Decodes one fixed-offset binary column for vertices [begin, end); base addresses vertex 0.
+  // The loop is compiled per type.
+  void set_column(std::size_t prop, const char* base, std::size_t stride, bool swap,
+                  std::size_t begin, std::size_t end) {
     const Target t = layout_.targets[prop];
     const PlyType type = vertex_.properties[prop].type;
-    const std::size_t n = vertex_.count;
     visit_type(type, [&](auto tag) {
       using T = decltype(tag);
       switch (t.slot) {
         case Slot::Position:
-          for (std::size_t i = 0; i < n; ++i)
+          for (std::size_t i = begin; i < end; ++i)
             cloud_.positions[i][t.index] = static_cast<float>(load<T>(base + i * stride, swap));
           break;
         case Slot::Normal:
-          for (std::size_t i = 0; i < n; ++i)
+          for (std::size_t i = begin; i < end; ++i)
             cloud_.normals[i][t.index] = static_cast<float>(load<T>(base + i * stride, swap));
           break;
         case Slot::Color:
-          for (std::size_t i = 0; i < n; ++i)
+          for (std::size_t i = begin; i < end; ++i)
             channel(cloud_.colors[i], t.index) =
                 to_channel(static_cast<double>(load<T>(base + i * stride, swap)), type);
           break;
         case Slot::Scalar: {
           float* out = cloud_.scalars[t.index].values.data();
-          for (std::size_t i = 0; i < n; ++i)
+          for (std::size_t i = begin; i < end; ++i)
             out[i] = static_cast<float>(load<T>(base + i * stride, swap));
           break;
         }
@@ -612,10 +614,15 @@ PlyData read_ply_data(const fs::path& path, bool want_faces) {
       for (const auto& p : e.properties) stride += type_size(p.type);
       const char* block = cur.take_block(e, stride);
       if (!is_vertex) continue;
-      std::size_t offset = 0;
-      for (std::size_t p = 0; p < e.properties.size(); ++p) {
-        store.set_column(p, block + offset, stride, swap);
-        offset += type_size(e.properties[p].type);
+      // Column by column within blocks that stay in cache: one pass over the file's bytes.
+      constexpr std::size_t kBlock = 4096;
+      for (std::size_t begin = 0; begin < e.count; begin += kBlock) {
+        const std::size_t end = std::min(e.count, begin + kBlock);
+        std::size_t offset = 0;
+        for (std::size_t p = 0; p < e.properties.size(); ++p) {
+          store.set_column(p, block + offset, stride, swap, begin, end);
+          offset += type_size(e.properties[p].type);
+        }
       }
     }
     cur.finish();
