@@ -20,7 +20,8 @@ struct Features {
   std::size_t non_finite = 0;
 };
 
-Features describe(const PointCloud& input, const GlobalRegistrationOptions& o, const char* which) {
+Features describe(const PointCloud& input, const GlobalRegistrationOptions& o,
+                  const Eigen::Vector3f& viewpoint, const char* which) {
   Features f;
   VoxelGridResult v = voxel_down_sample(input, static_cast<float>(o.voxel_size));
   f.non_finite = v.report.non_finite;
@@ -35,9 +36,14 @@ Features describe(const PointCloud& input, const GlobalRegistrationOptions& o, c
   NormalOptions nopt;
   nopt.radius = static_cast<float>(o.normal_radius > 0.0 ? o.normal_radius : 2.0 * o.voxel_size);
   nopt.max_neighbors = o.normal_max_neighbors;
-  // FPFH only needs a consistent sign locally; the sensor origin of the cloud's frame is the
-  // usual viewpoint.
   nopt.orientation = NormalOrientation::TowardsViewpoint;
+  if (o.orient_to_centroid) {
+    Eigen::Vector3d c = Eigen::Vector3d::Zero();
+    for (const auto& p : f.cloud.positions) c += p.cast<double>();
+    nopt.viewpoint = (c / static_cast<double>(f.cloud.size())).cast<float>();
+  } else {
+    nopt.viewpoint = viewpoint;
+  }
   estimate_normals(f.cloud, nopt, &tree);
   FpfhOptions fopt;
   fopt.radius =
@@ -55,8 +61,8 @@ GlobalRegistrationResult global_registration(const PointCloud& source, const Poi
     throw InputError(fmt::format(
         "global registration: the voxel size must be a positive number of metres, got {}",
         options.voxel_size));
-  const Features s = describe(source, options, "source");
-  const Features t = describe(target, options, "target");
+  const Features s = describe(source, options, options.source_viewpoint, "source");
+  const Features t = describe(target, options, options.target_viewpoint, "target");
   const std::vector<Correspondence> matches =
       match_descriptors(s.descriptors, t.descriptors, options.matching);
   RansacOptions ropt = options.ransac;

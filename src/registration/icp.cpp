@@ -267,7 +267,12 @@ struct PassContext {
   const PreparedSource& source;
   const PreparedTarget& target;
   const IcpOptions& options;
+  // Index of each source point's previous correspondence (kNoMatch if none), or empty. Only
+  // a search hint: see run_pass.
+  std::vector<std::uint32_t>* previous = nullptr;
 };
+
+constexpr std::uint32_t kNoMatch = std::numeric_limits<std::uint32_t>::max();
 
 // One pass at the estimate T_c (centred frames): correspondences and the sums of the method.
 template <IcpMethod M>
@@ -286,9 +291,24 @@ PassSums run_pass(const PassContext& ctx, const Isometry3d& T_c) {
       tbb::blocked_range<std::size_t>(0, src.size(), kGrain), PassSums{},
       [&](const tbb::blocked_range<std::size_t>& r, PassSums acc) {
         Neighbor nb;
+        std::uint32_t* previous = ctx.previous ? ctx.previous->data() : nullptr;
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
           const Eigen::Vector3d q = R * src[i].cast<double>() + tr;
-          if (!tree.nearest(q.cast<float>(), nb, max_d)) continue;
+          const Eigen::Vector3f qf = q.cast<float>();
+          // Warm start: the previous correspondence is at distance d from q now, so the
+          // nearest point is at most d away; searching within min(d, max_d) (plus a relative
+          // 1e-5 for float rounding) finds exactly the same nearest point as a search within
+          // max_d, but prunes most of the tree.
+          float bound = max_d;
+          if (previous && previous[i] != kNoMatch) {
+            const float d = (qf - tpts[previous[i]]).norm() * (1.f + 1e-5f) + 1e-9f;
+            bound = std::min(bound, d);
+          }
+          if (!tree.nearest(qf, nb, bound)) {
+            if (previous) previous[i] = kNoMatch;
+            continue;
+          }
+          if (previous) previous[i] = nb.index;
           const Eigen::Vector3d t = tpts[nb.index].cast<double>();
           const Eigen::Vector3d diff = q - t;
           acc.squared_distance += diff.squaredNorm();
@@ -419,7 +439,8 @@ IcpResult run_icp(const PreparedSource& source, const PreparedTarget& target,
   result.target_non_finite = target.non_finite;
   result.target_normals_estimated = target.normals_estimated;
 
-  const PassContext ctx{source, target, o};
+  std::vector<std::uint32_t> previous(source.points.size(), kNoMatch);
+  const PassContext ctx{source, target, o, &previous};
   const double n_source = static_cast<double>(source.points.size());
   Isometry3d T_c = to_centred(init_T_target_source, target.centroid, source.centroid);
   const auto fitness_of = [&](const PassSums& s) { return s.count / n_source; };

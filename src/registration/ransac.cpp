@@ -218,9 +218,11 @@ RansacResult ransac_registration(const PointCloud& source, const PointCloud& tar
   Candidate best;
   std::size_t needed = options.max_iterations;
   std::size_t drawn = 0;
+  std::size_t block_size = kRansacFirstBlock;
   while (drawn < needed) {
     const std::size_t begin = drawn;
-    const std::size_t end = std::min(begin + kRansacBlock, options.max_iterations);
+    const std::size_t end = std::min(begin + block_size, options.max_iterations);
+    block_size = std::min(2 * block_size, kRansacBlock);
     const BlockOutcome block = tbb::parallel_reduce(
         tbb::blocked_range<std::size_t>(begin, end, 16), BlockOutcome{},
         [&](const tbb::blocked_range<std::size_t>& r, BlockOutcome acc) {

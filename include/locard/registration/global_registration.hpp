@@ -11,6 +11,8 @@
 #include <locard/features/descriptor_matching.hpp>
 #include <locard/registration/ransac.hpp>
 
+#include <Eigen/Core>
+
 #include <cstddef>
 
 namespace locard {
@@ -21,6 +23,14 @@ struct GlobalRegistrationOptions {
   int normal_max_neighbors = 30;
   double feature_radius = 0.0;     // 0: 5 * voxel_size
   int feature_max_neighbors = 100;
+  // FPFH depends on the sign of the normals, so source and target must orient them alike:
+  // every normal points towards a viewpoint. For scans in their sensor's frame that is the
+  // sensor, the origin (the defaults below); for a cloud that was moved, pass where its sensor
+  // now is. With orient_to_centroid, each cloud's own centroid is used instead: it moves with
+  // the cloud, so it suits single objects and clouds whose sensor position is unknown.
+  Eigen::Vector3f source_viewpoint = Eigen::Vector3f::Zero();
+  Eigen::Vector3f target_viewpoint = Eigen::Vector3f::Zero();
+  bool orient_to_centroid = false;
   MatchOptions matching;           // mutual by default
   // RANSAC; max_correspondence_distance <= 0 means 1.5 * voxel_size.
   RansacOptions ransac{.max_correspondence_distance = 0.0};

@@ -19,7 +19,8 @@
 // Hypotheses are compared by (more inliers, then lower RMSE, then smaller h): a total order,
 // so the winner does not depend on the order in which threads finish.
 //
-// Hypotheses run in parallel, in fixed blocks of kRansacBlock. After each block, the number of
+// Hypotheses run in parallel, in fixed blocks: kRansacFirstBlock hypotheses, then doubling up
+// to kRansacBlock (64, 128, ..., 1024, 1024, ...). After each block, the number of
 // hypotheses needed for `confidence` is updated from the best inlier ratio w,
 //   N = log(1 - confidence) / log(1 - w^3),
 // and the search stops at the first block boundary at or beyond min(N, max_iterations). Block
@@ -44,6 +45,7 @@
 
 namespace locard {
 
+inline constexpr std::size_t kRansacFirstBlock = 64;
 inline constexpr std::size_t kRansacBlock = 1024;
 
 struct RansacOptions {
