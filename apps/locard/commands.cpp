@@ -18,7 +18,6 @@ void register_all(CLI::App& app, GlobalOptions& global) {
   register_info(app, global);
   register_convert(app, global);
   register_register(app, global);
-  register_register(app, global);
   register_scan_sim(app, global);
 }
 

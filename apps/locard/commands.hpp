@@ -24,7 +24,6 @@ void set_runner(CLI::App* subcommand, CommandRunner runner);
 void register_info(CLI::App& app, GlobalOptions& global);
 void register_convert(CLI::App& app, GlobalOptions& global);
 void register_register(CLI::App& app, GlobalOptions& global);
-void register_register(CLI::App& app, GlobalOptions& global);
 void register_scan_sim(CLI::App& app, GlobalOptions& global);
 
 }  // namespace locard::cli
