@@ -41,7 +41,8 @@ bool guarded(std::jmp_buf& jump, Step& step) {
 
 class CFile {
  public:
-  CFile(const std::filesystem::path& path, const char* mode) : file_(std::fopen(path.c_str(), mode)) {
+  CFile(const std::filesystem::path& path, const char* mode)
+      : file_(std::fopen(path.c_str(), mode)) {
     if (!file_) {
       const std::string reason = std::error_code(errno, std::generic_category()).message();
       throw_input_error(path, "cannot open image file (" + reason + ")");
@@ -86,29 +87,39 @@ void on_png_error(png_structp png, png_const_charp message) {
 // Warnings concern ancillary chunks (colour profiles, text); pixels are unaffected.
 void on_png_warning(png_structp, png_const_charp) {}
 
+// The C libraries' decoder state lives in small owners held as members, so a constructor
+// that throws half-way still releases it.
+struct PngReadHandle {
+  png_structp png = nullptr;
+  png_infop info = nullptr;
+  PngReadHandle() = default;
+  PngReadHandle(const PngReadHandle&) = delete;
+  PngReadHandle& operator=(const PngReadHandle&) = delete;
+  ~PngReadHandle() { png_destroy_read_struct(&png, &info, nullptr); }
+};
+
 class PngReader {
  public:
   PngReader(const std::filesystem::path& path, FILE* file) : path_(path) {
     run([&] {
-      png_ = png_create_read_struct(PNG_LIBPNG_VER_STRING, &state_, on_png_error, on_png_warning);
-      if (png_) info_ = png_create_info_struct(png_);
+      h_.png = png_create_read_struct(PNG_LIBPNG_VER_STRING, &state_, on_png_error, on_png_warning);
+      if (h_.png) h_.info = png_create_info_struct(h_.png);
     });
-    if (!png_ || !info_) throw std::bad_alloc();
+    if (!h_.png || !h_.info) throw std::bad_alloc();
     run([&] {
-      png_init_io(png_, file);
-      png_set_sig_bytes(png_, 8);
-      png_set_user_limits(png_, kMaxSide, kMaxSide);
+      png_init_io(h_.png, file);
+      png_set_sig_bytes(h_.png, 8);
+      png_set_user_limits(h_.png, kMaxSide, kMaxSide);
       // Each chunk's CRC-32 already covers every compressed byte; zlib's Adler-32 over the
       // inflated data is a second, redundant pass (about 5% of a depth frame's decode).
-      png_set_option(png_, PNG_IGNORE_ADLER32, PNG_OPTION_ON);
-      png_read_info(png_, info_);
+      png_set_option(h_.png, PNG_IGNORE_ADLER32, PNG_OPTION_ON);
+      png_read_info(h_.png, h_.info);
     });
-    width_ = static_cast<int>(png_get_image_width(png_, info_));
-    height_ = static_cast<int>(png_get_image_height(png_, info_));
-    bit_depth_ = png_get_bit_depth(png_, info_);
-    color_type_ = png_get_color_type(png_, info_);
+    width_ = static_cast<int>(png_get_image_width(h_.png, h_.info));
+    height_ = static_cast<int>(png_get_image_height(h_.png, h_.info));
+    bit_depth_ = png_get_bit_depth(h_.png, h_.info);
+    color_type_ = png_get_color_type(h_.png, h_.info);
   }
-  ~PngReader() { png_destroy_read_struct(&png_, &info_, nullptr); }
   PngReader(const PngReader&) = delete;
   PngReader& operator=(const PngReader&) = delete;
 
@@ -116,7 +127,7 @@ class PngReader {
   int height() const { return height_; }
   int bit_depth() const { return bit_depth_; }
   int color_type() const { return color_type_; }
-  bool has_trns() const { return png_get_valid(png_, info_, PNG_INFO_tRNS) != 0; }
+  bool has_trns() const { return png_get_valid(h_.png, h_.info, PNG_INFO_tRNS) != 0; }
 
   ImageFileInfo info() const {
     ImageFileInfo out;
@@ -136,12 +147,14 @@ class PngReader {
   // Transforms to RGB8: palette expanded, gray replicated, alpha dropped, 16-bit scaled down.
   void set_rgb8_transforms() {
     run([&] {
-      if (color_type_ == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png_);
-      if (color_type_ == PNG_COLOR_TYPE_GRAY && bit_depth_ < 8) png_set_expand_gray_1_2_4_to_8(png_);
-      if (bit_depth_ == 16) png_set_scale_16(png_);
-      if ((color_type_ & PNG_COLOR_MASK_COLOR) == 0) png_set_gray_to_rgb(png_);
-      if ((color_type_ & PNG_COLOR_MASK_ALPHA) != 0 || has_trns()) png_set_strip_alpha(png_);
-      png_read_update_info(png_, info_);
+      if (color_type_ == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(h_.png);
+      if (color_type_ == PNG_COLOR_TYPE_GRAY && bit_depth_ < 8)
+        png_set_expand_gray_1_2_4_to_8(h_.png);
+      if (bit_depth_ == 16) png_set_scale_16(h_.png);
+      if ((color_type_ & PNG_COLOR_MASK_COLOR) == 0) png_set_gray_to_rgb(h_.png);
+      if ((color_type_ & PNG_COLOR_MASK_ALPHA) != 0 || has_trns()) png_set_strip_alpha(h_.png);
+      png_set_interlace_handling(h_.png);
+      png_read_update_info(h_.png, h_.info);
     });
     check_row_bytes(3);
   }
@@ -149,8 +162,9 @@ class PngReader {
   // 16-bit gray: the file stores big-endian samples, we want native ones.
   void set_depth_transforms() {
     run([&] {
-      if (kLittleEndian) png_set_swap(png_);
-      png_read_update_info(png_, info_);
+      if (kLittleEndian) png_set_swap(h_.png);
+      png_set_interlace_handling(h_.png);
+      png_read_update_info(h_.png, h_.info);
     });
     check_row_bytes(2);
   }
@@ -160,8 +174,8 @@ class PngReader {
     std::vector<png_bytep> rows(static_cast<std::size_t>(height_));
     for (std::size_t v = 0; v < rows.size(); ++v) rows[v] = data + v * stride;
     run([&] {
-      png_read_image(png_, rows.data());
-      png_read_end(png_, nullptr);
+      png_read_image(h_.png, rows.data());
+      png_read_end(h_.png, nullptr);
     });
   }
 
@@ -169,20 +183,20 @@ class PngReader {
   template <typename Step>
   void run(Step&& step) {
     if (!guarded(state_.jump, step))
-      throw_input_error(path_, std::string("corrupt or truncated PNG (libpng: ") + state_.message + ")");
+      throw_input_error(path_,
+                        std::string("corrupt or truncated PNG (libpng: ") + state_.message + ")");
   }
 
   void check_row_bytes(std::size_t bytes_per_pixel) const {
-    if (png_get_rowbytes(png_, info_) != bytes_per_pixel * static_cast<std::size_t>(width_))
+    if (png_get_rowbytes(h_.png, h_.info) != bytes_per_pixel * static_cast<std::size_t>(width_))
       throw_input_error(path_, "unsupported PNG pixel layout (colour type " +
-                                   std::to_string(color_type_) + ", " +
-                                   std::to_string(bit_depth_) + "-bit)");
+                                   std::to_string(color_type_) + ", " + std::to_string(bit_depth_) +
+                                   "-bit)");
   }
 
   const std::filesystem::path& path_;
   PngErrorState state_{};
-  png_structp png_ = nullptr;
-  png_infop info_ = nullptr;
+  PngReadHandle h_;
   int width_ = 0;
   int height_ = 0;
   int bit_depth_ = 0;
@@ -211,49 +225,57 @@ void on_jpeg_message(j_common_ptr cinfo, int level) {
   on_jpeg_error(cinfo);
 }
 
+// jpeg_destroy is safe on a zeroed or partly created struct: it frees what was allocated.
+struct JpegHandle {
+  jpeg_decompress_struct cinfo{};
+  JpegHandle() = default;
+  JpegHandle(const JpegHandle&) = delete;
+  JpegHandle& operator=(const JpegHandle&) = delete;
+  ~JpegHandle() { jpeg_destroy_decompress(&cinfo); }
+};
+
 class JpegReader {
  public:
   JpegReader(const std::filesystem::path& path, FILE* file) : path_(path) {
-    cinfo_.err = jpeg_std_error(&state_.manager);
+    h_.cinfo.err = jpeg_std_error(&state_.manager);
     state_.manager.error_exit = on_jpeg_error;
     state_.manager.emit_message = on_jpeg_message;
     run([&] {
-      jpeg_create_decompress(&cinfo_);
-      jpeg_stdio_src(&cinfo_, file);
-      jpeg_read_header(&cinfo_, TRUE);
+      jpeg_create_decompress(&h_.cinfo);
+      jpeg_stdio_src(&h_.cinfo, file);
+      jpeg_read_header(&h_.cinfo, TRUE);
     });
-    if (cinfo_.image_width > static_cast<unsigned>(kMaxSide) ||
-        cinfo_.image_height > static_cast<unsigned>(kMaxSide))
+    if (h_.cinfo.image_width > static_cast<unsigned>(kMaxSide) ||
+        h_.cinfo.image_height > static_cast<unsigned>(kMaxSide))
       throw_input_error(path_, "JPEG claims an implausible size");
   }
-  // Safe on a partly created struct: jpeg_destroy only frees what was allocated.
-  ~JpegReader() { jpeg_destroy_decompress(&cinfo_); }
   JpegReader(const JpegReader&) = delete;
   JpegReader& operator=(const JpegReader&) = delete;
 
   ImageFileInfo info() const {
     ImageFileInfo out;
-    out.width = static_cast<int>(cinfo_.image_width);
-    out.height = static_cast<int>(cinfo_.image_height);
-    out.channels = cinfo_.num_components;
+    out.width = static_cast<int>(h_.cinfo.image_width);
+    out.height = static_cast<int>(h_.cinfo.image_height);
+    out.channels = h_.cinfo.num_components;
     out.bit_depth = 8;
     return out;
   }
 
   ColorImage read_rgb8() {
-    if (cinfo_.jpeg_color_space == JCS_CMYK || cinfo_.jpeg_color_space == JCS_YCCK)
+    if (h_.cinfo.jpeg_color_space == JCS_CMYK || h_.cinfo.jpeg_color_space == JCS_YCCK)
       throw_input_error(path_, "CMYK JPEG is not supported, expected RGB or gray");
-    cinfo_.out_color_space = JCS_RGB;  // gray is replicated by libjpeg
-    run([&] { jpeg_start_decompress(&cinfo_); });
-    if (cinfo_.output_components != 3) throw_input_error(path_, "unsupported JPEG colour layout");
-    ColorImage image(static_cast<int>(cinfo_.output_width), static_cast<int>(cinfo_.output_height));
+    h_.cinfo.out_color_space = JCS_RGB;  // gray is replicated by libjpeg
+    run([&] { jpeg_start_decompress(&h_.cinfo); });
+    if (h_.cinfo.output_components != 3) throw_input_error(path_, "unsupported JPEG colour layout");
+    ColorImage image(static_cast<int>(h_.cinfo.output_width),
+                     static_cast<int>(h_.cinfo.output_height));
     std::vector<JSAMPROW> rows(static_cast<std::size_t>(image.height()));
     for (int v = 0; v < image.height(); ++v) rows[static_cast<std::size_t>(v)] = image.row(v);
     run([&] {
-      while (cinfo_.output_scanline < cinfo_.output_height)
-        jpeg_read_scanlines(&cinfo_, rows.data() + cinfo_.output_scanline,
-                            cinfo_.output_height - cinfo_.output_scanline);
-      jpeg_finish_decompress(&cinfo_);
+      while (h_.cinfo.output_scanline < h_.cinfo.output_height)
+        jpeg_read_scanlines(&h_.cinfo, rows.data() + h_.cinfo.output_scanline,
+                            h_.cinfo.output_height - h_.cinfo.output_scanline);
+      jpeg_finish_decompress(&h_.cinfo);
     });
     return image;
   }
@@ -262,12 +284,13 @@ class JpegReader {
   template <typename Step>
   void run(Step&& step) {
     if (!guarded(state_.jump, step))
-      throw_input_error(path_, std::string("corrupt or truncated JPEG (libjpeg: ") + state_.message + ")");
+      throw_input_error(path_,
+                        std::string("corrupt or truncated JPEG (libjpeg: ") + state_.message + ")");
   }
 
   const std::filesystem::path& path_;
   JpegErrorState state_{};
-  jpeg_decompress_struct cinfo_{};
+  JpegHandle h_;
 };
 
 // ---------------------------------------------------------------- PNG writing
@@ -279,16 +302,25 @@ void on_png_write(png_structp png, png_bytep data, png_size_t size) {
 
 void on_png_flush(png_structp png) { static_cast<std::ofstream*>(png_get_io_ptr(png))->flush(); }
 
+struct PngWriteHandle {
+  png_structp png = nullptr;
+  png_infop info = nullptr;
+  PngWriteHandle() = default;
+  PngWriteHandle(const PngWriteHandle&) = delete;
+  PngWriteHandle& operator=(const PngWriteHandle&) = delete;
+  ~PngWriteHandle() { png_destroy_write_struct(&png, &info); }
+};
+
 class PngWriter {
  public:
   explicit PngWriter(const std::filesystem::path& path) : path_(path) {
     run([&] {
-      png_ = png_create_write_struct(PNG_LIBPNG_VER_STRING, &state_, on_png_error, on_png_warning);
-      if (png_) info_ = png_create_info_struct(png_);
+      h_.png =
+          png_create_write_struct(PNG_LIBPNG_VER_STRING, &state_, on_png_error, on_png_warning);
+      if (h_.png) h_.info = png_create_info_struct(h_.png);
     });
-    if (!png_ || !info_) throw std::bad_alloc();
+    if (!h_.png || !h_.info) throw std::bad_alloc();
   }
-  ~PngWriter() { png_destroy_write_struct(&png_, &info_); }
   PngWriter(const PngWriter&) = delete;
   PngWriter& operator=(const PngWriter&) = delete;
 
@@ -296,19 +328,20 @@ class PngWriter {
              const std::uint8_t* data, std::size_t stride) {
     // libpng copies each row before transforming it, so the input is never written to.
     std::vector<png_bytep> rows(static_cast<std::size_t>(height));
-    for (std::size_t v = 0; v < rows.size(); ++v) rows[v] = const_cast<png_bytep>(data + v * stride);
+    for (std::size_t v = 0; v < rows.size(); ++v)
+      rows[v] = const_cast<png_bytep>(data + v * stride);
     run([&] {
-      png_set_write_fn(png_, &out, on_png_write, on_png_flush);
+      png_set_write_fn(h_.png, &out, on_png_write, on_png_flush);
       // Speed over size: level 1 costs a few percent of size on depth maps, and writing is on
       // the simulator's and exporters' path.
-      png_set_compression_level(png_, 1);
-      png_set_IHDR(png_, info_, static_cast<png_uint_32>(width), static_cast<png_uint_32>(height),
-                   bit_depth, color_type, PNG_INTERLACE_NONE, PNG_COMPRESSION_TYPE_DEFAULT,
-                   PNG_FILTER_TYPE_DEFAULT);
-      png_write_info(png_, info_);
-      if (bit_depth == 16 && kLittleEndian) png_set_swap(png_);
-      png_write_image(png_, rows.data());
-      png_write_end(png_, nullptr);
+      png_set_compression_level(h_.png, 1);
+      png_set_IHDR(h_.png, h_.info, static_cast<png_uint_32>(width),
+                   static_cast<png_uint_32>(height), bit_depth, color_type, PNG_INTERLACE_NONE,
+                   PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+      png_write_info(h_.png, h_.info);
+      if (bit_depth == 16 && kLittleEndian) png_set_swap(h_.png);
+      png_write_image(h_.png, rows.data());
+      png_write_end(h_.png, nullptr);
     });
   }
 
@@ -321,8 +354,7 @@ class PngWriter {
 
   const std::filesystem::path& path_;
   PngErrorState state_{};
-  png_structp png_ = nullptr;
-  png_infop info_ = nullptr;
+  PngWriteHandle h_;
 };
 
 template <typename T, int C>
@@ -367,8 +399,8 @@ DepthImage read_depth_image(const std::filesystem::path& path) {
     throw_input_error(path, "depth image has " + std::to_string(info.channels) +
                                 " channels, expected one 16-bit channel");
   if (png.bit_depth() != 16)
-    throw_input_error(path, "depth image is " + std::to_string(png.bit_depth()) +
-                                "-bit, expected 16-bit");
+    throw_input_error(
+        path, "depth image is " + std::to_string(png.bit_depth()) + "-bit, expected 16-bit");
   png.set_depth_transforms();
   DepthImage image(png.width(), png.height());
   png.read_pixels(reinterpret_cast<std::uint8_t*>(image.data().data()),

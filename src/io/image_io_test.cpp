@@ -6,9 +6,12 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <png.h>
 #include <zlib.h>
 
+#include <bit>
 #include <cstdint>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -49,6 +52,28 @@ DepthImage noisy_depth(int width, int height) {
     d = static_cast<std::uint16_t>(state >> 16);
   }
   return depth;
+}
+
+// Adam7-interlaced 16-bit gray PNG written with libpng directly: write_png never interlaces,
+// but other tools do. libpng's default error handling aborts, which fails the test loudly.
+void write_interlaced_depth(const fs::path& path, const DepthImage& depth) {
+  FILE* file = std::fopen(path.c_str(), "wb");
+  ASSERT_NE(file, nullptr);
+  png_structp png = png_create_write_struct(PNG_LIBPNG_VER_STRING, nullptr, nullptr, nullptr);
+  png_infop info = png_create_info_struct(png);
+  png_init_io(png, file);
+  png_set_IHDR(png, info, static_cast<png_uint_32>(depth.width()),
+               static_cast<png_uint_32>(depth.height()), 16, PNG_COLOR_TYPE_GRAY,
+               PNG_INTERLACE_ADAM7, PNG_COMPRESSION_TYPE_DEFAULT, PNG_FILTER_TYPE_DEFAULT);
+  png_write_info(png, info);
+  if (std::endian::native == std::endian::little) png_set_swap(png);
+  std::vector<png_bytep> rows;
+  for (int v = 0; v < depth.height(); ++v)
+    rows.push_back(reinterpret_cast<png_bytep>(const_cast<std::uint16_t*>(depth.row(v))));
+  png_write_image(png, rows.data());
+  png_write_end(png, nullptr);
+  png_destroy_write_struct(&png, &info);
+  std::fclose(file);
 }
 
 TEST(ImageIo, ReadsSevenScenesDepthAtKnownPixels) {
@@ -111,7 +136,8 @@ TEST(ImageIo, ColourPngRoundTripIsExact) {
   ColorImage image(37, 23);
   for (int v = 0; v < image.height(); ++v)
     for (int u = 0; u < image.width(); ++u)
-      for (int c = 0; c < 3; ++c) image.at(u, v, c) = static_cast<std::uint8_t>(u * 7 + v * 13 + c * 101);
+      for (int c = 0; c < 3; ++c)
+        image.at(u, v, c) = static_cast<std::uint8_t>(u * 7 + v * 13 + c * 101);
   write_png(path, image);
   const ImageFileInfo info = read_image_info(path);
   EXPECT_EQ(info.channels, 3);
@@ -160,10 +186,18 @@ TEST(ImageIo, DepthIsStoredBigEndianAsPngRequires) {
   EXPECT_EQ(read_depth_image(path).at(0, 0), 0x0102);
 }
 
+TEST(ImageIo, ReadsInterlacedPng) {
+  const fs::path path = test::scratch_dir() / "adam7.png";
+  const DepthImage depth = noisy_depth(33, 17);  // odd sizes exercise partial Adam7 passes
+  write_interlaced_depth(path, depth);
+  EXPECT_EQ(read_depth_image(path), depth);
+}
+
 TEST(ImageIo, GrayPngReadsAsReplicatedRgb) {
   const fs::path path = test::scratch_dir() / "gray.png";
   GrayImage gray(5, 4);
-  for (int i = 0; i < 20; ++i) gray.data()[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(i * 12);
+  for (int i = 0; i < 20; ++i)
+    gray.data()[static_cast<std::size_t>(i)] = static_cast<std::uint8_t>(i * 12);
   write_png(path, gray);
   const ColorImage color = read_color_image(path);
   ASSERT_EQ(color.width(), 5);
@@ -175,9 +209,9 @@ TEST(ImageIo, GrayPngReadsAsReplicatedRgb) {
 
 TEST(ImageIo, MissingFileNamesTheFile) {
   const fs::path path = test::scratch_dir() / "nothing-here.png";
-  EXPECT_THAT([&] { read_depth_image(path); },
-              ThrowsMessage<InputError>(AllOf(HasSubstr("nothing-here.png"),
-                                              HasSubstr("No such file"))));
+  EXPECT_THAT(
+      [&] { read_depth_image(path); },
+      ThrowsMessage<InputError>(AllOf(HasSubstr("nothing-here.png"), HasSubstr("No such file"))));
   EXPECT_THAT([&] { read_color_image(path); },
               ThrowsMessage<InputError>(HasSubstr("nothing-here.png")));
   EXPECT_THAT([&] { read_image_info(path); },
@@ -194,13 +228,19 @@ TEST(ImageIo, TruncatedPngIsInputError) {
               ThrowsMessage<InputError>(AllOf(HasSubstr("half.png"), HasSubstr("truncated"))));
   EXPECT_THAT([&] { read_color_image(dir / "half.png"); },
               ThrowsMessage<InputError>(HasSubstr("half.png")));
+  // Cut inside the header: the error comes while the decoder is being set up.
+  bytes.resize(20);
+  write_bytes(dir / "header.png", bytes);
+  EXPECT_THAT([&] { read_image_info(dir / "header.png"); },
+              ThrowsMessage<InputError>(HasSubstr("header.png")));
 }
 
 TEST(ImageIo, CorruptPngDataIsInputError) {
   const fs::path dir = test::scratch_dir();
   write_png(dir / "full.png", noisy_depth(128, 96));
   std::vector<char> bytes = read_bytes(dir / "full.png");
-  for (std::size_t i = bytes.size() / 2; i < bytes.size() / 2 + 16; ++i) bytes[i] = static_cast<char>(~bytes[i]);
+  for (std::size_t i = bytes.size() / 2; i < bytes.size() / 2 + 16; ++i)
+    bytes[i] = static_cast<char>(~bytes[i]);
   write_bytes(dir / "flipped.png", bytes);
   EXPECT_THAT([&] { read_depth_image(dir / "flipped.png"); },
               ThrowsMessage<InputError>(HasSubstr("flipped.png")));
@@ -215,6 +255,10 @@ TEST(ImageIo, TruncatedJpegIsInputError) {
   write_bytes(dir / "half.jpg", bytes);
   EXPECT_THAT([&] { read_color_image(dir / "half.jpg"); },
               ThrowsMessage<InputError>(AllOf(HasSubstr("half.jpg"), HasSubstr("JPEG"))));
+  bytes.resize(100);  // inside the JPEG header
+  write_bytes(dir / "header.jpg", bytes);
+  EXPECT_THAT([&] { read_image_info(dir / "header.jpg"); },
+              ThrowsMessage<InputError>(HasSubstr("header.jpg")));
 }
 
 TEST(ImageIo, EightBitDepthIsInputError) {
@@ -238,8 +282,9 @@ TEST(ImageIo, NonImageAndEmptyFilesAreInputErrors) {
   const fs::path dir = test::scratch_dir();
   write_bytes(dir / "text.png", {'h', 'e', 'l', 'l', 'o', ' ', 'w', 'o', 'r', 'l', 'd'});
   write_bytes(dir / "empty.png", {});
-  EXPECT_THAT([&] { read_color_image(dir / "text.png"); },
-              ThrowsMessage<InputError>(AllOf(HasSubstr("text.png"), HasSubstr("not a PNG or JPEG"))));
+  EXPECT_THAT(
+      [&] { read_color_image(dir / "text.png"); },
+      ThrowsMessage<InputError>(AllOf(HasSubstr("text.png"), HasSubstr("not a PNG or JPEG"))));
   EXPECT_THAT([&] { read_depth_image(dir / "empty.png"); },
               ThrowsMessage<InputError>(AllOf(HasSubstr("empty.png"), HasSubstr("empty"))));
 }

@@ -41,8 +41,9 @@ CameraIntrinsics from_open3d(const std::filesystem::path& path, const json& j) {
   }
   // Column-major: [fx 0 0 | s fy 0 | cx cy 1]. A row-major file has cx, cy at 2 and 5.
   if (k[2] != 0.0 || k[5] != 0.0)
-    throw_input_error(path, "\"intrinsic_matrix\" looks row-major (non-zero entries 2 and 5); "
-                            "Open3D stores K column-major: [fx,0,0, 0,fy,0, cx,cy,1]");
+    throw_input_error(path,
+                      "\"intrinsic_matrix\" looks row-major (non-zero entries 2 and 5); "
+                      "Open3D stores K column-major: [fx,0,0, 0,fy,0, cx,cy,1]");
   if (k[1] != 0.0 || k[3] != 0.0 || k[8] != 1.0)
     throw_input_error(path, "\"intrinsic_matrix\" is not a pinhole K without skew");
   CameraIntrinsics out;
@@ -97,8 +98,9 @@ IntrinsicsFile read_intrinsics_json_with_scale(const std::filesystem::path& path
       if (!(*out.depth_scale > 0.0)) throw_input_error(path, "\"depth_scale\" must be positive");
     }
   } else {
-    throw_input_error(path, "no camera intrinsics: expected \"intrinsic_matrix\" (Open3D) or "
-                            "\"fx\", \"fy\", \"cx\", \"cy\" (Locard)");
+    throw_input_error(path,
+                      "no camera intrinsics: expected \"intrinsic_matrix\" (Open3D) or "
+                      "\"fx\", \"fy\", \"cx\", \"cy\" (Locard)");
   }
   if (!(out.intrinsics.fx > 0.0 && out.intrinsics.fy > 0.0))
     throw_input_error(path, "focal lengths must be positive");

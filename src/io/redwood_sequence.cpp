@@ -76,8 +76,8 @@ void choose_intrinsics(RgbdSequence& sequence) {
     for (const auto& json : io_detail::list_files(dir, {".json"})) {
       if (!is_intrinsics_json(json)) continue;
       sequence.intrinsics = read_intrinsics_json(json);
-      sequence.intrinsics_source = dir == sequence.root ? json.filename().string()
-                                                        : "../" + json.filename().string();
+      sequence.intrinsics_source =
+          dir == sequence.root ? json.filename().string() : "../" + json.filename().string();
       return;
     }
   }
@@ -120,8 +120,8 @@ RgbdSequence read_redwood_sequence(const fs::path& folder, const SequenceOptions
   sequence.root = folder;
   sequence.depth_scale = kRedwoodDepthScale;
 
-  const auto pairs = fs::is_regular_file(folder / "rgbd.match") ? read_match_file(folder)
-                                                                : pair_by_order(folder);
+  const auto pairs =
+      fs::is_regular_file(folder / "rgbd.match") ? read_match_file(folder) : pair_by_order(folder);
   for (std::size_t i = 0; i < pairs.size(); ++i) {
     FrameEntry frame;
     frame.frame_index = static_cast<std::int64_t>(i);

@@ -31,11 +31,13 @@ fs::path make_redwood_folder(const fs::path& folder, int n) {
   fs::create_directories(folder / "depth");
   for (int i = 0; i < n; ++i) {
     const std::string name = "0000" + std::to_string(i);
-    write_png(folder / "depth" / (name + ".png"), DepthImage(64, 48, static_cast<std::uint16_t>(1000 + i)));
+    write_png(folder / "depth" / (name + ".png"),
+              DepthImage(64, 48, static_cast<std::uint16_t>(1000 + i)));
     write_png(folder / "color" / (name + ".png"), ColorImage(64, 48, static_cast<std::uint8_t>(i)));
   }
-  write_text(folder / "camera.json",
-             R"({"width": 64, "height": 48, "intrinsic_matrix": [50, 0, 0, 0, 51, 0, 31.5, 23.5, 1]})");
+  write_text(
+      folder / "camera.json",
+      R"({"width": 64, "height": 48, "intrinsic_matrix": [50, 0, 0, 0, 51, 0, 31.5, 23.5, 1]})");
   return folder;
 }
 
@@ -61,7 +63,7 @@ TEST(RedwoodSequence, IndexesOpen3dTestData) {
   // Both odometry.log and trajectory.log have 5 entries; odometry.log is preferred.
   EXPECT_EQ(s.ground_truth_source, "odometry.log");
   ASSERT_EQ(s.ground_truth.size(), 5u);
-  Eigen::Matrix4d frame2;  // entry "2 2 3" of odometry.log
+  Eigen::Matrix4d frame2;                                // entry "2 2 3" of odometry.log
   frame2 << 0.999954, -7.8978e-005, 0.0096394, 1.99935,  //
       -0.000149351, 0.99972, 0.0236841, 1.95353,         //
       -0.00963857, -0.0236844, 0.999673, -0.301586,      //
@@ -144,9 +146,9 @@ TEST(RedwoodSequence, MismatchedColourAndDepthSizeNamesBothFiles) {
 TEST(RedwoodSequence, UnequalImageCountsWithoutMatchFileIsInputError) {
   const fs::path folder = make_redwood_folder(test::scratch_dir() / "scene", 3);
   fs::remove(folder / "color" / "00001.png");
-  EXPECT_THAT([&] { read_redwood_sequence(folder); },
-              ThrowsMessage<InputError>(AllOf(HasSubstr("color/ holds 2"),
-                                              HasSubstr("depth/ holds 3"))));
+  EXPECT_THAT(
+      [&] { read_redwood_sequence(folder); },
+      ThrowsMessage<InputError>(AllOf(HasSubstr("color/ holds 2"), HasSubstr("depth/ holds 3"))));
   // An rgbd.match makes the pairing explicit; the missing colour is reported on load.
   write_text(folder / "rgbd.match",
              "depth/00000.png color/00000.png\ndepth/00001.png color/00001.png\n");
@@ -158,8 +160,9 @@ TEST(RedwoodSequence, UnequalImageCountsWithoutMatchFileIsInputError) {
 
 TEST(RedwoodSequence, RowMajorCameraJsonIsInputError) {
   const fs::path folder = make_redwood_folder(test::scratch_dir() / "scene", 1);
-  write_text(folder / "camera.json",
-             R"({"width": 64, "height": 48, "intrinsic_matrix": [50, 0, 31.5, 0, 51, 23.5, 0, 0, 1]})");
+  write_text(
+      folder / "camera.json",
+      R"({"width": 64, "height": 48, "intrinsic_matrix": [50, 0, 31.5, 0, 51, 23.5, 0, 0, 1]})");
   EXPECT_THAT([&] { read_redwood_sequence(folder); },
               ThrowsMessage<InputError>(AllOf(HasSubstr("camera.json"), HasSubstr("row-major"))));
 }

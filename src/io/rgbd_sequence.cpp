@@ -68,7 +68,8 @@ void apply_overrides(RgbdSequence& sequence, const SequenceOptions& options) {
   }
 }
 
-std::vector<fs::path> list_files(const fs::path& folder, const std::vector<std::string>& extensions) {
+std::vector<fs::path> list_files(const fs::path& folder,
+                                 const std::vector<std::string>& extensions) {
   std::vector<fs::path> files;
   for (const auto& entry : fs::directory_iterator(folder)) {
     if (!entry.is_regular_file()) continue;
@@ -133,9 +134,10 @@ RgbdSequence open_rgbd_sequence(const fs::path& path, const SequenceOptions& opt
                                   "), not an RGB-D sequence");
     case DatasetFormat::Unknown: break;
   }
-  throw_input_error(path, "not a recognised RGB-D sequence: expected rgb.txt + depth.txt (TUM), "
-                          "frame-*.depth.png / frame-*.pose.txt (7-Scenes) or color/ + depth/ "
-                          "folders (Redwood)");
+  throw_input_error(path,
+                    "not a recognised RGB-D sequence: expected rgb.txt + depth.txt (TUM), "
+                    "frame-*.depth.png / frame-*.pose.txt (7-Scenes) or color/ + depth/ "
+                    "folders (Redwood)");
 }
 
 RgbdFrame RgbdSequence::load_frame(std::size_t i) const {

@@ -41,12 +41,11 @@ TEST(RgbdSequenceFormat, OpenRefusesNonSequencesWithReason) {
   const fs::path dir = test::scratch_dir();
   write_text(dir / "scan.ply", "ply\n");
   EXPECT_THAT([&] { open_rgbd_sequence(dir / "scan.ply"); },
-              ThrowsMessage<InputError>(AllOf(HasSubstr("scan.ply"),
-                                              HasSubstr("point-cloud input"),
+              ThrowsMessage<InputError>(AllOf(HasSubstr("scan.ply"), HasSubstr("point-cloud input"),
                                               HasSubstr("not an RGB-D sequence"))));
   EXPECT_THAT([&] { open_rgbd_sequence(dir); },
-              ThrowsMessage<InputError>(AllOf(HasSubstr("not a recognised RGB-D sequence"),
-                                              HasSubstr("rgb.txt"))));
+              ThrowsMessage<InputError>(
+                  AllOf(HasSubstr("not a recognised RGB-D sequence"), HasSubstr("rgb.txt"))));
   EXPECT_THAT([&] { open_rgbd_sequence(dir / "nowhere"); },
               ThrowsMessage<InputError>(AllOf(HasSubstr("nowhere"), HasSubstr("not found"))));
 }

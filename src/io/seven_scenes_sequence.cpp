@@ -93,10 +93,14 @@ RgbdSequence read_seven_scenes_sequence(const fs::path& folder, const SequenceOp
     const auto parsed = parse_frame_name(entry.path().filename().string());
     if (!parsed) continue;
     FrameFiles& f = files[parsed->first];
-    if (parsed->second == "color.jpg") f.color_jpg = entry.path();
-    else if (parsed->second == "color.png") f.color_png = entry.path();
-    else if (parsed->second == "depth.png") f.depth = entry.path();
-    else if (parsed->second == "pose.txt") f.pose = entry.path();
+    if (parsed->second == "color.jpg")
+      f.color_jpg = entry.path();
+    else if (parsed->second == "color.png")
+      f.color_png = entry.path();
+    else if (parsed->second == "depth.png")
+      f.depth = entry.path();
+    else if (parsed->second == "pose.txt")
+      f.pose = entry.path();
   }
 
   // No timestamps in 7-Scenes: frames were captured at 30 Hz.

@@ -145,18 +145,18 @@ TEST(SevenScenesSequence, MalformedPoseFilesNameTheFile) {
     write_text(dir / "frame-000007.pose.txt", pose);
     read_seven_scenes_sequence(dir);
   };
-  EXPECT_THAT([&] { attempt("rows", "1 0 0 0\n0 1 0 0\n0 0 1 0\n"); },
-              ThrowsMessage<InputError>(AllOf(HasSubstr("frame-000007.pose.txt"),
-                                              HasSubstr("found 12"))));
-  EXPECT_THAT([&] { attempt("last", "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 1 1\n"); },
-              ThrowsMessage<InputError>(AllOf(HasSubstr("frame-000007.pose.txt"),
-                                              HasSubstr("0 0 0 1"))));
-  EXPECT_THAT([&] { attempt("word", "1 0 0 0\n0 1 0 0\n0 0 1 nan?\n0 0 0 1\n"); },
-              ThrowsMessage<InputError>(AllOf(HasSubstr("frame-000007.pose.txt"),
-                                              HasSubstr("nan?"))));
-  EXPECT_THAT([&] { attempt("scale", "2 0 0 0\n0 2 0 0\n0 0 2 0\n0 0 0 1\n"); },
-              ThrowsMessage<InputError>(AllOf(HasSubstr("frame-000007.pose.txt"),
-                                              HasSubstr("rigid"))));
+  EXPECT_THAT(
+      [&] { attempt("rows", "1 0 0 0\n0 1 0 0\n0 0 1 0\n"); },
+      ThrowsMessage<InputError>(AllOf(HasSubstr("frame-000007.pose.txt"), HasSubstr("found 12"))));
+  EXPECT_THAT(
+      [&] { attempt("last", "1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 1 1\n"); },
+      ThrowsMessage<InputError>(AllOf(HasSubstr("frame-000007.pose.txt"), HasSubstr("0 0 0 1"))));
+  EXPECT_THAT(
+      [&] { attempt("word", "1 0 0 0\n0 1 0 0\n0 0 1 nan?\n0 0 0 1\n"); },
+      ThrowsMessage<InputError>(AllOf(HasSubstr("frame-000007.pose.txt"), HasSubstr("nan?"))));
+  EXPECT_THAT(
+      [&] { attempt("scale", "2 0 0 0\n0 2 0 0\n0 0 2 0\n0 0 0 1\n"); },
+      ThrowsMessage<InputError>(AllOf(HasSubstr("frame-000007.pose.txt"), HasSubstr("rigid"))));
 }
 
 TEST(SevenScenesSequence, TruncatedJpegNamesFileAndFrame) {
@@ -169,9 +169,9 @@ TEST(SevenScenesSequence, TruncatedJpegNamesFileAndFrame) {
   fs::copy_file(seven_scenes() / "frame-000000.depth.png", dir / "frame-000004.depth.png");
   const RgbdSequence s = read_seven_scenes_sequence(dir);
   ASSERT_EQ(s.frames.size(), 1u);
-  EXPECT_THAT([&] { s.load_frame(0); },
-              ThrowsMessage<InputError>(AllOf(HasSubstr("frame-000004.color.jpg"),
-                                              HasSubstr("frame 0"))));
+  EXPECT_THAT(
+      [&] { s.load_frame(0); },
+      ThrowsMessage<InputError>(AllOf(HasSubstr("frame-000004.color.jpg"), HasSubstr("frame 0"))));
 }
 
 }  // namespace

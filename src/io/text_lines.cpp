@@ -13,7 +13,9 @@
 namespace locard::io_detail {
 namespace {
 
-bool is_space(char c) { return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f'; }
+bool is_space(char c) {
+  return c == ' ' || c == '\t' || c == '\n' || c == '\r' || c == '\v' || c == '\f';
+}
 
 std::string format_time(double t) {
   std::ostringstream out;
@@ -83,7 +85,9 @@ bool DataLines::next(std::vector<std::string_view>& tokens) {
   return false;
 }
 
-void DataLines::fail(const std::string& what) const { throw_input_error(path_, what, line_number_); }
+void DataLines::fail(const std::string& what) const {
+  throw_input_error(path_, what, line_number_);
+}
 
 void TimeOrderCheck::check(const DataLines& lines, double timestamp) {
   if (previous_ && !(timestamp > *previous_))

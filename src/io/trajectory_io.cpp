@@ -34,7 +34,8 @@ Eigen::RowVector4d read_log_row(DataLines& lines, std::vector<std::string_view>&
     lines.fail("expected a matrix row of 4 numbers, found " + std::to_string(tokens.size()) +
                " values");
   Eigen::RowVector4d row;
-  for (int c = 0; c < 4; ++c) row[c] = parse_or_fail(lines, tokens[static_cast<std::size_t>(c)], "matrix value");
+  for (int c = 0; c < 4; ++c)
+    row[c] = parse_or_fail(lines, tokens[static_cast<std::size_t>(c)], "matrix value");
   return row;
 }
 
@@ -76,8 +77,8 @@ void write_tum_trajectory(const std::filesystem::path& path, const Trajectory& t
     if (q.w() < 0) q.coeffs() = -q.coeffs();  // one of the two equal quaternions, consistently
     const Eigen::Vector3d t = pose.T_world_camera.translation();
     // Nanosecond timestamps; shortest round-trip form ("{}") for the pose values.
-    out << fmt::format("{:.9f} {} {} {} {} {} {} {}\n", pose.timestamp, t.x(), t.y(), t.z(),
-                       q.x(), q.y(), q.z(), q.w());
+    out << fmt::format("{:.9f} {} {} {} {} {} {} {}\n", pose.timestamp, t.x(), t.y(), t.z(), q.x(),
+                       q.y(), q.z(), q.w());
   }
   file.commit();
 }
@@ -99,8 +100,10 @@ Trajectory read_redwood_log(const std::filesystem::path& path) {
     if ((m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-9)
       lines.fail("last matrix row must be '0 0 0 1'");
     const Eigen::Matrix3d R = m.topLeftCorner<3, 3>();
-    if ((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > kRotationTolerance)
-      throw_input_error(path, "matrix of the entry is not a rigid transform (rotation not orthonormal)",
+    if ((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() >
+        kRotationTolerance)
+      throw_input_error(path,
+                        "matrix of the entry is not a rigid transform (rotation not orthonormal)",
                         header_line);
     StampedPose pose;
     pose.frame_index = *frame;
@@ -117,7 +120,8 @@ void write_redwood_log(const std::filesystem::path& path, const Trajectory& traj
   for (std::size_t i = 0; i < trajectory.size(); ++i) {
     const auto& pose = trajectory[i];
     // Open3D writes "i i i+1"; readers take the first number as the frame.
-    const std::int64_t frame = pose.frame_index >= 0 ? pose.frame_index : static_cast<std::int64_t>(i);
+    const std::int64_t frame =
+        pose.frame_index >= 0 ? pose.frame_index : static_cast<std::int64_t>(i);
     out << fmt::format("{} {} {}\n", frame, frame, frame + 1);
     const Eigen::Matrix4d m = pose.T_world_camera.matrix();
     for (int r = 0; r < 4; ++r)

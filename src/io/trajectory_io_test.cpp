@@ -33,8 +33,9 @@ Isometry3d tum_pose(double tx, double ty, double tz, double qx, double qy, doubl
 }
 
 void expect_same_pose(const Isometry3d& a, const Isometry3d& b, double tolerance) {
-  EXPECT_LT((a.matrix() - b.matrix()).cwiseAbs().maxCoeff(), tolerance)
-      << "\n" << a.matrix() << "\nvs\n" << b.matrix();
+  EXPECT_LT((a.matrix() - b.matrix()).cwiseAbs().maxCoeff(), tolerance) << "\n"
+                                                                        << a.matrix() << "\nvs\n"
+                                                                        << b.matrix();
 }
 
 TEST(TrajectoryIo, ReadsTumGroundTruthWithHeaderLineLackingHash) {
@@ -50,7 +51,9 @@ TEST(TrajectoryIo, ReadsTumGroundTruthWithHeaderLineLackingHash) {
   // Rotations are orthonormal after normalising the 4-digit quaternions.
   for (const auto& pose : gt)
     ASSERT_LT((pose.T_world_camera.linear().transpose() * pose.T_world_camera.linear() -
-               Eigen::Matrix3d::Identity()).norm(), 1e-12);
+               Eigen::Matrix3d::Identity())
+                  .norm(),
+              1e-12);
 }
 
 TEST(TrajectoryIo, TumWriteReadRoundTripKeepsFullPrecision) {

@@ -53,7 +53,8 @@ std::string folder_name(const fs::path& folder) {
 
 // "freiburg1".."freiburg3" anywhere, or "fr1".."fr3" as a separate word ("tum-fr1-xyz").
 std::optional<char> freiburg_camera(const std::string& name) {
-  for (std::size_t i = name.find("freiburg"); i != std::string::npos; i = name.find("freiburg", i + 1)) {
+  for (std::size_t i = name.find("freiburg"); i != std::string::npos;
+       i = name.find("freiburg", i + 1)) {
     const std::size_t d = i + 8;
     if (d < name.size() && name[d] >= '1' && name[d] <= '3') return name[d];
   }

@@ -84,8 +84,9 @@ TEST(TumSequence, IndexesSharedMetadataWithFreiburg1FromFolderName) {
   EXPECT_EQ(s.frames[0].depth_path, tum_metadata() / "depth" / "1305031102.160407.png");
   EXPECT_DOUBLE_EQ(s.frames[0].timestamp, 1305031102.160407);
   // Ground truth has a gap of 110 ms around depth frames 201 and 202.
-  const auto with_pose = std::count_if(s.frames.begin(), s.frames.end(),
-                                       [](const FrameEntry& f) { return f.T_world_camera.has_value(); });
+  const auto with_pose = std::count_if(s.frames.begin(), s.frames.end(), [](const FrameEntry& f) {
+    return f.T_world_camera.has_value();
+  });
   EXPECT_EQ(with_pose, 796);
   EXPECT_FALSE(s.frames[201].T_world_camera);
   EXPECT_FALSE(s.frames[202].T_world_camera);
@@ -99,8 +100,9 @@ TEST(TumSequence, AssociatesDepthToNearestColourAndCountsDrops) {
   for (std::int64_t k = 11; k <= 19; ++k) EXPECT_EQ(find_frame(s, k), nullptr) << k;
   EXPECT_EQ(s.frames[10].frame_index, 10);
   EXPECT_EQ(s.frames[11].frame_index, 20);
-  const auto with_pose = std::count_if(s.frames.begin(), s.frames.end(),
-                                       [](const FrameEntry& f) { return f.T_world_camera.has_value(); });
+  const auto with_pose = std::count_if(s.frames.begin(), s.frames.end(), [](const FrameEntry& f) {
+    return f.T_world_camera.has_value();
+  });
   EXPECT_EQ(with_pose, 787);
 
   SequenceOptions tight;
@@ -192,23 +194,22 @@ TEST(TumSequence, BadFramesNameFileAndFrame) {
   const RgbdSequence s = read_tum_sequence(folder);
 
   EXPECT_THAT([&] { s.load_frame(1); },
-              ThrowsMessage<InputError>(AllOf(HasSubstr("depth/1305031102.194330.png"),
-                                              HasSubstr("frame 1"))));
+              ThrowsMessage<InputError>(
+                  AllOf(HasSubstr("depth/1305031102.194330.png"), HasSubstr("frame 1"))));
   EXPECT_THAT([&] { s.load_frame(2); },
               ThrowsMessage<InputError>(AllOf(HasSubstr("depth/1305031102.226738.png"),
                                               HasSubstr("depth image is 8-bit, expected 16-bit"),
                                               HasSubstr("frame 2"))));
   EXPECT_THAT([&] { s.load_frame(3); },
-              ThrowsMessage<InputError>(AllOf(HasSubstr("rgb/1305031102.275326.png"),
-                                              HasSubstr("depth/1305031102.262886.png"),
-                                              HasSubstr("320x240"), HasSubstr("640x480"),
-                                              HasSubstr("frame 3"))));
+              ThrowsMessage<InputError>(AllOf(
+                  HasSubstr("rgb/1305031102.275326.png"), HasSubstr("depth/1305031102.262886.png"),
+                  HasSubstr("320x240"), HasSubstr("640x480"), HasSubstr("frame 3"))));
   EXPECT_THAT([&] { s.load_frame(4); },
               ThrowsMessage<InputError>(AllOf(HasSubstr("depth/1305031102.295279.png"),
                                               HasSubstr("intrinsics"), HasSubstr("frame 4"))));
   EXPECT_THAT([&] { s.load_frame(5); },
-              ThrowsMessage<InputError>(AllOf(HasSubstr("rgb/1305031102.343233.png"),
-                                              HasSubstr("frame 5"))));
+              ThrowsMessage<InputError>(
+                  AllOf(HasSubstr("rgb/1305031102.343233.png"), HasSubstr("frame 5"))));
   EXPECT_THROW(s.load_frame(798), InputError);
 }
 
@@ -236,13 +237,21 @@ TEST(TumSequence, UnparsableLinesNameFileAndLine) {
     };
   };
   EXPECT_THAT(
-      [&] { read_tum_sequence(make_tum_folder(root / "a", replace("rgb.txt", 3, "1305031102.27x rgb/x.png"))); },
+      [&] {
+        read_tum_sequence(
+            make_tum_folder(root / "a", replace("rgb.txt", 3, "1305031102.27x rgb/x.png")));
+      },
       ThrowsMessage<InputError>(AllOf(HasSubstr("rgb.txt:7"), HasSubstr("1305031102.27x"))));
   EXPECT_THAT(
-      [&] { read_tum_sequence(make_tum_folder(root / "b", replace("depth.txt", 2, "1305031102.2300"))); },
+      [&] {
+        read_tum_sequence(make_tum_folder(root / "b", replace("depth.txt", 2, "1305031102.2300")));
+      },
       ThrowsMessage<InputError>(AllOf(HasSubstr("depth.txt:6"), HasSubstr("timestamp filename"))));
   EXPECT_THAT(
-      [&] { read_tum_sequence(make_tum_folder(root / "c", replace("groundtruth.txt", 0, "1305031098.6659 1.3 0.6"))); },
+      [&] {
+        read_tum_sequence(
+            make_tum_folder(root / "c", replace("groundtruth.txt", 0, "1305031098.6659 1.3 0.6")));
+      },
       ThrowsMessage<InputError>(HasSubstr("groundtruth.txt:4")));
 }
 
