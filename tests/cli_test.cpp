@@ -34,6 +34,9 @@ TEST(Cli, InfoOnSevenScenesReportsFramesPosesResolutionAndIntrinsics) {
   EXPECT_TRUE(contains(result.output, "1000 poses")) << result.output;
   EXPECT_TRUE(contains(result.output, "640x480")) << result.output;
   EXPECT_TRUE(contains(result.output, "fx=585 fy=585 cx=320 cy=240")) << result.output;
+  EXPECT_TRUE(contains(result.output, "preset seven_scenes")) << result.output;
+  // 7-Scenes marks missing depth with 65535 as well as 0; neither is a measurement.
+  EXPECT_TRUE(contains(result.output, "depth range:   0.801 m .. 3.")) << result.output;
 }
 
 TEST(Cli, InfoJsonOnOpen3dFramesGivesDepthRange) {

@@ -27,7 +27,7 @@ struct InfoOptions {
 };
 
 nlohmann::json intrinsics_json(const CameraIntrinsics& k) {
-  return {{"name", k.name}, {"width", k.width}, {"height", k.height},
+  return {{"name", k.name}, {"preset", k.matching_preset().value_or("")}, {"width", k.width}, {"height", k.height},
           {"fx", k.fx},     {"fy", k.fy},       {"cx", k.cx},
           {"cy", k.cy}};
 }
@@ -89,8 +89,9 @@ int info_sequence(const InfoOptions& opt, const GlobalOptions& global) {
     fmt::print("time span:     {:.3f} s .. {:.3f} s\n", seq.frames.front().timestamp,
                seq.frames.back().timestamp);
   fmt::print("resolution:    {}x{}\n", k.width, k.height);
-  fmt::print("intrinsics:    {} fx={} fy={} cx={} cy={} (from {})\n",
-             k.name.empty() ? "custom" : k.name, k.fx, k.fy, k.cx, k.cy, seq.intrinsics_source);
+  const auto preset = k.matching_preset();
+  fmt::print("intrinsics:    fx={} fy={} cx={} cy={} (from {}{})\n", k.fx, k.fy, k.cx, k.cy,
+             seq.intrinsics_source, preset ? "; = preset " + *preset : std::string());
   fmt::print("depth scale:   {} units per metre\n", seq.depth_scale);
   fmt::print("depth range:   {:.3f} m .. {:.3f} m{}\n", dmin, dmax,
              opt.every > 1 ? fmt::format(" (every {}th frame)", opt.every) : "");

@@ -78,6 +78,14 @@ CameraIntrinsics CameraIntrinsics::preset(std::string_view name) {
   throw InputError("unknown camera preset '" + std::string(name) + "' (known: " + known + ")");
 }
 
+std::optional<std::string> CameraIntrinsics::matching_preset() const {
+  for (const auto& k : all_presets())
+    if (k.width == width && k.height == height && k.fx == fx && k.fy == fy && k.cx == cx &&
+        k.cy == cy)
+      return k.name;
+  return std::nullopt;
+}
+
 std::vector<std::string> CameraIntrinsics::preset_names() {
   std::vector<std::string> names;
   for (const auto& k : all_presets()) names.push_back(k.name);

@@ -39,6 +39,14 @@ TEST(CameraIntrinsics, KinectV2FieldOfViewIs70_6By60Degrees) {
   EXPECT_DOUBLE_EQ(k.cy, 211.5);
 }
 
+TEST(CameraIntrinsics, RecognisesPresetValuesReadFromAFile) {
+  CameraIntrinsics k = CameraIntrinsics::preset("seven_scenes");
+  k.name = "camera-intrinsics.txt";
+  EXPECT_EQ(k.matching_preset(), "seven_scenes");
+  k.cx = 320.5;
+  EXPECT_EQ(k.matching_preset(), std::nullopt);
+}
+
 TEST(CameraIntrinsics, UnknownPresetNamesTheKnownOnes) {
   try {
     CameraIntrinsics::preset("kinect_v3");

@@ -41,6 +41,9 @@ struct CameraIntrinsics {
   static CameraIntrinsics preset(std::string_view name);
   static std::optional<CameraIntrinsics> find_preset(std::string_view name);
   static std::vector<std::string> preset_names();
+  // The preset with exactly these width, height, fx, fy, cx, cy, if any (so intrinsics read
+  // from a dataset's own file can be recognised, e.g. 7-Scenes' camera-intrinsics.txt).
+  std::optional<std::string> matching_preset() const;
   // Builds intrinsics from a horizontal and vertical field of view (degrees), centred.
   static CameraIntrinsics from_fov(int width, int height, double hfov_deg, double vfov_deg,
                                    std::string name = {});
