@@ -8,6 +8,9 @@ find_package(nlohmann_json 3 REQUIRED)
 find_package(fmt REQUIRED)
 find_package(embree 3 REQUIRED)
 find_package(CLI11 REQUIRED)
+find_package(Ceres 2 REQUIRED)        # pose-graph optimisation
+find_package(assimp 5 REQUIRED)       # OBJ/FBX/glTF export and re-import
+find_package(CGAL 5 REQUIRED)         # Delaunay/advancing-front triangulation, hole filling
 if(LOCARD_BUILD_TESTS)
   find_package(GTest REQUIRED)
 endif()

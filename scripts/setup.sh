@@ -8,7 +8,7 @@ packages=(
   build-essential cmake ninja-build pkg-config git ca-certificates
   # core libraries
   libeigen3-dev libtbb-dev libnanoflann-dev libcli11-dev libspdlog-dev libfmt-dev
-  nlohmann-json3-dev libpng-dev libjpeg-dev libembree-dev
+  nlohmann-json3-dev libpng-dev libjpeg-dev libembree-dev libceres-dev libassimp-dev libcgal-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # reference peer for benchmarks and cross-checks (never a runtime dependency)
