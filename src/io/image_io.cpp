@@ -63,6 +63,7 @@ class CFile {
 FileKind sniff(const std::filesystem::path& path, FILE* file) {
   unsigned char magic[8] = {};
   const std::size_t n = std::fread(magic, 1, sizeof magic, file);
+  if (n == 0 && std::ferror(file)) throw_input_error(path, "cannot read image file");
   if (n == 0) throw_input_error(path, "image file is empty");
   if (n == 8 && png_sig_cmp(magic, 0, 8) == 0) return FileKind::Png;
   if (n >= 3 && magic[0] == 0xFF && magic[1] == 0xD8 && magic[2] == 0xFF) {
