@@ -8,9 +8,11 @@
 #include <pcl/features/fpfh_omp.h>
 #include <pcl/features/normal_3d_omp.h>
 #include <pcl/filters/voxel_grid.h>
-#include <pcl/io/ply_io.h>
+#include <pcl/common/io.h>
 #include <pcl/point_types.h>
 #include <pcl/search/kdtree.h>
+
+#include "ply_reader.hpp"
 
 #include <algorithm>
 #include <chrono>
@@ -27,7 +29,7 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
 
 int voxel(const char* path, float leaf, int repeats) {
   pcl::PointCloud<pcl::PointXYZRGB>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZRGB>);
-  if (pcl::io::loadPLYFile(path, *cloud) != 0) return 1;
+  locard_pcl::read_ply(path, *cloud);
   double best = std::numeric_limits<double>::infinity();
   std::size_t out_points = 0;
   for (int r = 0; r < repeats; ++r) {
@@ -48,7 +50,7 @@ int voxel(const char* path, float leaf, int repeats) {
 int features(const char* path, float normal_radius, int normal_max_nn, float fpfh_radius,
              int repeats) {
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
-  if (pcl::io::loadPLYFile(path, *cloud) != 0) return 1;
+  locard_pcl::read_ply(path, *cloud);
   double best = std::numeric_limits<double>::infinity();
   for (int r = 0; r < repeats; ++r) {
     const auto start = std::chrono::steady_clock::now();
