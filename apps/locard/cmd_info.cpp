@@ -41,8 +41,7 @@ std::pair<double, double> depth_range(const RgbdSequence& seq, int every, bool q
   std::mutex mutex;
   unsigned lo = std::numeric_limits<unsigned>::max(), hi = 0;
   tbb::parallel_for(std::size_t{0}, picked.size(), [&](std::size_t j) {
-    const auto& entry = seq.frames[picked[j]];
-    const DepthImage depth = read_depth_image(entry.depth_path);
+    const DepthImage depth = seq.load_depth(picked[j]);
     unsigned flo = std::numeric_limits<unsigned>::max(), fhi = 0;
     for (const std::uint16_t d : depth.data())
       if (d) {

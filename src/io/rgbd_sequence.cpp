@@ -140,13 +140,21 @@ RgbdSequence open_rgbd_sequence(const fs::path& path, const SequenceOptions& opt
                     "folders (Redwood)");
 }
 
-RgbdFrame RgbdSequence::load_frame(std::size_t i) const {
+DepthImage RgbdSequence::load_depth(std::size_t i) const {
   if (i >= frames.size())
     throw_input_error(root, "frame " + std::to_string(i) + " requested, the sequence has " +
                                 std::to_string(frames.size()) + " frames");
+  DepthImage depth = read_frame_image(read_depth_image, frames[i].depth_path, i);
+  if (invalid_depth_value)
+    for (std::uint16_t& d : depth.data())
+      if (d == *invalid_depth_value) d = 0;
+  return depth;
+}
+
+RgbdFrame RgbdSequence::load_frame(std::size_t i) const {
   const FrameEntry& entry = frames[i];
   RgbdFrame frame;
-  frame.depth = read_frame_image(read_depth_image, entry.depth_path, i);
+  frame.depth = load_depth(i);
   if (!entry.color_path.empty()) {
     frame.color = read_frame_image(read_color_image, entry.color_path, i);
     if (frame.color.width() != frame.depth.width() || frame.color.height() != frame.depth.height())

@@ -87,6 +87,9 @@ RgbdSequence read_seven_scenes_sequence(const fs::path& folder, const SequenceOp
   sequence.format = DatasetFormat::SevenScenes;
   sequence.root = folder;
   sequence.depth_scale = kSevenScenesDepthScale;
+  // 7-Scenes marks pixels without a measurement with 65535 as well as 0 (19 frames of the
+  // shared subset have such pixels); no Kinect v1 reading comes near 65.535 m.
+  sequence.invalid_depth_value = 65535;
 
   std::map<std::int64_t, FrameFiles> files;  // ordered by frame number
   for (const auto& entry : fs::directory_iterator(folder)) {

@@ -8,6 +8,8 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -84,6 +86,18 @@ TEST(SevenScenesSequence, LoadsFrameZeroWithKnownDepth) {
   EXPECT_EQ(frame.frame_index, 0);
   EXPECT_DOUBLE_EQ(frame.timestamp, 0.0);
   EXPECT_DOUBLE_EQ(frame.intrinsics.fx, 585.0);
+}
+
+TEST(SevenScenesSequence, InvalidMarker65535BecomesZero) {
+  // frame-000033.depth.png stores 46 pixels as 65535 ("no measurement" in 7-Scenes).
+  const RgbdSequence s = read_seven_scenes_sequence(seven_scenes());
+  const DepthImage raw = read_depth_image(s.frames[33].depth_path);
+  EXPECT_EQ(std::count(raw.data().begin(), raw.data().end(), 65535), 46);
+  const DepthImage loaded = s.load_depth(33);
+  EXPECT_EQ(std::count(loaded.data().begin(), loaded.data().end(), 65535), 0);
+  EXPECT_EQ(std::count(loaded.data().begin(), loaded.data().end(), 0),
+            std::count(raw.data().begin(), raw.data().end(), 0) + 46);
+  EXPECT_EQ(s.load_frame(33).depth, loaded);
 }
 
 TEST(SevenScenesSequence, EveryFrameDecodesCleanly) {

@@ -57,6 +57,9 @@ struct RgbdSequence {
   double depth_scale = 1000.0;
   std::string ground_truth_source;  // file(s) the ground truth came from; empty when none
   std::size_t dropped_frames = 0;   // TUM: depth frames without a colour match in tolerance
+  // A raw value the dataset uses for "no measurement" besides 0 (7-Scenes: 65535). Loading
+  // turns it into 0 so no kernel mistakes it for a 65 m reading.
+  std::optional<std::uint16_t> invalid_depth_value;
   std::vector<FrameEntry> frames;  // frames with images, in capture order
   Trajectory ground_truth;         // every ground-truth pose the dataset has (may be more
                                    // poses than frames, e.g. 1000 poses for 374 7-Scenes frames)
@@ -65,6 +68,8 @@ struct RgbdSequence {
   // Reads and checks frame `i`: images exist and decode, depth is 16-bit, colour and depth
   // sizes agree with each other and the intrinsics. Throws InputError naming file and frame.
   RgbdFrame load_frame(std::size_t i) const;
+  // Only the depth image of frame `i`, with the same checks and invalid-value handling.
+  DepthImage load_depth(std::size_t i) const;
 };
 
 RgbdSequence open_rgbd_sequence(const std::filesystem::path& path,
