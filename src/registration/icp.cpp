@@ -77,7 +77,7 @@ void check_count(const char* which, std::size_t finite, std::size_t dropped,
                  std::size_t needed) {
   if (finite >= needed) return;
   throw InputError(fmt::format(
-      "ICP: the {} cloud has {} usable point{}{} ; at least {} are needed", which, finite,
+      "ICP: the {} cloud has {} usable point{}{}; at least {} are needed", which, finite,
       finite == 1 ? "" : "s",
       dropped ? fmt::format(" ({} with NaN/Inf coordinates dropped)", dropped) : "", needed));
 }
@@ -579,6 +579,12 @@ IcpResult icp_multiscale(const PointCloud& source, const PointCloud& target,
   for (const IcpScale& s : scales)
     if (!(s.voxel_size >= 0.0) || !std::isfinite(s.voxel_size))
       throw InputError(fmt::format("multi-scale ICP: voxel size {} is not >= 0", s.voxel_size));
+  // Judge the inputs before any voxel grid hides their non-finite points.
+  for (const auto& [cloud, which] : {std::pair{&source, "source"}, std::pair{&target, "target"}}) {
+    std::size_t finite = 0;
+    for (const auto& p : cloud->positions) finite += p.allFinite();
+    check_count(which, finite, cloud->size() - finite, std::max<std::size_t>(options.min_points, 3));
+  }
   Isometry3d T = init_T_target_source;
   IcpResult result;
   std::vector<IcpLevelReport> levels;
@@ -593,16 +599,21 @@ IcpResult icp_multiscale(const PointCloud& source, const PointCloud& target,
       lo.normal_max_neighbors = 30;
     }
     std::size_t source_nf = 0, target_nf = 0;
-    if (s.voxel_size > 0.0) {
-      const VoxelGridResult vs = voxel_down_sample(source, static_cast<float>(s.voxel_size));
-      const VoxelGridResult vt = voxel_down_sample(target, static_cast<float>(s.voxel_size));
-      source_nf = vs.report.non_finite;
-      target_nf = vt.report.non_finite;
-      result = icp(vs.cloud, vt.cloud, T, lo);
-    } else {
-      result = icp(source, target, T, lo);
-      source_nf = result.source_non_finite;
-      target_nf = result.target_non_finite;
+    try {
+      if (s.voxel_size > 0.0) {
+        const VoxelGridResult vs = voxel_down_sample(source, static_cast<float>(s.voxel_size));
+        const VoxelGridResult vt = voxel_down_sample(target, static_cast<float>(s.voxel_size));
+        source_nf = vs.report.non_finite;
+        target_nf = vt.report.non_finite;
+        result = icp(vs.cloud, vt.cloud, T, lo);
+      } else {
+        result = icp(source, target, T, lo);
+        source_nf = result.source_non_finite;
+        target_nf = result.target_non_finite;
+      }
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("multi-scale ICP, level {} of {} (voxel {} m): {}", level + 1,
+                                   scales.size(), s.voxel_size, e.what()));
     }
     result.source_non_finite = source_nf;
     result.target_non_finite = target_nf;
