@@ -29,7 +29,7 @@ TEST(Cli, InfoOnSevenScenesReportsFramesPosesResolutionAndIntrinsics) {
   const auto result = run_cli("--quiet info '" +
                               (shared_data() / "7scenes-tsdf-fusion" / "data").string() + "'");
   ASSERT_EQ(result.exit_code, 0) << result.output;
-  EXPECT_TRUE(contains(result.output, "7-scenes")) << result.output;
+  EXPECT_TRUE(contains(result.output, "format:        7-Scenes")) << result.output;
   EXPECT_TRUE(contains(result.output, "374 with images")) << result.output;
   EXPECT_TRUE(contains(result.output, "1000 poses")) << result.output;
   EXPECT_TRUE(contains(result.output, "640x480")) << result.output;
