@@ -2,15 +2,14 @@
 
 #include <locard/core/error.hpp>
 
-#include "core/parallel_radix_sort.hpp"
-
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
-#include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <bit>
 #include <cmath>
 #include <limits>
@@ -22,19 +21,15 @@ namespace {
 
 constexpr double kMaxVoxelsPerAxis = double(1 << 21);
 
+// ---- voxel keys ------------------------------------------------------------------------------
+
 // floor(x) for |x| < 2^62 without a libm call (x86-64's baseline has no SSE4.1 round).
 double fast_floor(double x) {
   const double truncated = static_cast<double>(static_cast<std::int64_t>(x));
   return truncated > x ? truncated - 1.0 : truncated;
 }
 
-// Voxel coordinate of p along each axis: floor(p / voxel_size), in double.
-Eigen::Vector3d voxel_coordinates(const Eigen::Vector3f& p, double voxel_size) {
-  return Eigen::Vector3d(fast_floor(p.x() / voxel_size), fast_floor(p.y() / voxel_size),
-                         fast_floor(p.z() / voxel_size));
-}
-
-// Bounds of the finite positions. floor(p / v) is monotonic in p, so the voxel coordinate
+// Bounds of the finite positions. floor(p * (1 / v)) is monotonic in p, so the voxel coordinate
 // bounds are those of the position bounds: one cheap float pass, no division per point.
 struct Bounds {
   Eigen::Vector3f min = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
@@ -68,77 +63,228 @@ Bounds position_bounds(const PointCloud& cloud) {
       });
 }
 
-// The linear key of every point, (x, y, z) lexicographic: ((ix * ny) + iy) * nz + iz with
-// voxel coordinates relative to the minimum; non-finite points get `sentinel` (sorts last).
+// The linear key of a point, (x, y, z) lexicographic: ((ix * ny) + iy) * nz + iz, with the
+// voxel coordinates floor(p * (1 / voxel_size)) (in double) taken relative to the minimum.
+// Non-finite points get `sentinel` = the voxel count, which sorts after every voxel.
 struct KeyGrid {
-  Eigen::Vector3d origin;          // minimum voxel coordinate
-  std::uint64_t ny = 0, nz = 0;    // voxels along y and z
-  std::uint64_t sentinel = 0;      // total voxel count
-  std::uint64_t key(const Eigen::Vector3f& p, double voxel_size) const {
+  double inverse_voxel_size = 0.0;
+  Eigen::Vector3d origin;        // minimum voxel coordinate
+  std::uint64_t ny = 0, nz = 0;  // voxels along y and z
+  std::uint64_t sentinel = 0;
+  std::uint64_t key(const Eigen::Vector3f& p) const {
     if (!is_finite_point(p)) return sentinel;
-    const Eigen::Vector3d v = voxel_coordinates(p, voxel_size) - origin;
-    return (static_cast<std::uint64_t>(v.x()) * ny + static_cast<std::uint64_t>(v.y())) * nz +
-           static_cast<std::uint64_t>(v.z());
+    const auto axis = [&](float x, double o) {
+      return static_cast<std::uint64_t>(fast_floor(x * inverse_voxel_size) - o);
+    };
+    return (axis(p.x(), origin.x()) * ny + axis(p.y(), origin.y())) * nz +
+           axis(p.z(), origin.z());
   }
 };
 
-// Sorted (key, point index) pairs, whichever way they were stored.
-struct SortedPoints {
-  std::unique_ptr<std::uint64_t[]> packed;                       // key << 32 | index
-  std::vector<std::pair<std::uint64_t, std::uint32_t>> wide;     // when keys need > 32 bits
-  std::uint64_t key(std::size_t i) const { return packed ? packed[i] >> 32 : wide[i].first; }
-  std::uint32_t index(std::size_t i) const {
-    return packed ? static_cast<std::uint32_t>(packed[i]) : wide[i].second;
-  }
+// ---- accumulation --------------------------------------------------------------------------
+// The key space is split into a few ranges of about equal point counts; each range is one task
+// that scans the points in input order and accumulates the points whose key falls in its range
+// into an open-addressing hash table. Every voxel therefore belongs to exactly one task and is
+// summed in input order, whatever the thread count; the voxels of a range are then sorted by
+// key, and the ranges follow each other in key order.
+
+// Sums of one voxel: position, colour and count together (40 bytes, one or two cache lines).
+struct VoxelSum {
+  Eigen::Vector3d position;
+  std::uint32_t r, g, b;
+  std::uint32_t count;
 };
 
-SortedPoints sort_by_voxel(const PointCloud& cloud, const KeyGrid& grid, double voxel_size) {
-  const std::size_t n = cloud.size();
-  const int key_bits = std::bit_width(grid.sentinel);
-  SortedPoints sorted;
-  if (key_bits <= 32) {
-    // Stable radix sort on the key bits: points of a voxel stay in input order.
-    sorted.packed = std::make_unique_for_overwrite<std::uint64_t[]>(n);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 16384), [&](const auto& range) {
-      for (std::size_t i = range.begin(); i != range.end(); ++i) {
-        sorted.packed[i] = (grid.key(cloud.positions[i], voxel_size) << 32) | i;
-      }
-    });
-    detail::parallel_radix_sort(sorted.packed.get(), n, 32, key_bits);
-  } else {
-    // Sparse, very large grids: comparison sort on (key, index), unique hence deterministic.
-    sorted.wide.resize(n);
-    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 16384), [&](const auto& range) {
-      for (std::size_t i = range.begin(); i != range.end(); ++i) {
-        sorted.wide[i] = {grid.key(cloud.positions[i], voxel_size), static_cast<std::uint32_t>(i)};
-      }
-    });
-    tbb::parallel_sort(sorted.wide.begin(), sorted.wide.end());
+// Sums of one key range, one entry per voxel (in order of first appearance).
+template <typename Key>
+struct RangeSums {
+  std::vector<Key> key;
+  std::vector<VoxelSum> sum;
+  std::vector<Eigen::Vector3d> normal;  // when the cloud has normals
+  std::vector<double> scalar;           // scalar-field sums, field-minor
+  std::vector<std::uint32_t> first;     // first point (normal fallback)
+};
+
+// Open addressing with linear probing: key -> voxel id in RangeSums; grows at half load.
+template <typename Key>
+class VoxelTable {
+ public:
+  static constexpr Key kEmpty = std::numeric_limits<Key>::max();  // never a real key
+
+  std::uint32_t find_or_insert(Key key, std::uint32_t next_id) {
+    if (2 * (used_ + 1) > slots_.size()) grow();
+    std::size_t slot = hash(key);
+    while (slots_[slot].key != kEmpty) {
+      if (slots_[slot].key == key) return slots_[slot].id;
+      slot = (slot + 1) & (slots_.size() - 1);
+    }
+    slots_[slot] = Slot{key, next_id};
+    ++used_;
+    return next_id;
   }
-  return sorted;
+
+ private:
+  std::size_t hash(Key key) const {  // Fibonacci hashing
+    return static_cast<std::size_t>((static_cast<std::uint64_t>(key) * 0x9E3779B97F4A7C15ull) >>
+                                    (64 - log2_));
+  }
+  struct Slot {
+    Key key;
+    std::uint32_t id;
+  };
+  void grow() {
+    std::vector<Slot> old = std::move(slots_);
+    log2_ = old.empty() ? 12 : log2_ + 1;
+    slots_.assign(std::size_t{1} << log2_, Slot{kEmpty, 0});
+    for (const Slot& entry : old) {
+      if (entry.key == kEmpty) continue;
+      std::size_t slot = hash(entry.key);
+      while (slots_[slot].key != kEmpty) slot = (slot + 1) & (slots_.size() - 1);
+      slots_[slot] = entry;
+    }
+  }
+
+  std::vector<Slot> slots_;
+  int log2_ = 0;
+  std::size_t used_ = 0;
+};
+
+template <typename Key>
+RangeSums<Key> accumulate_range(const PointCloud& cloud, const Key* keys, Key low, Key high) {
+  RangeSums<Key> sums;
+  VoxelTable<Key> table;
+  const std::size_t fields = cloud.scalars.size();
+  const bool with_colors = cloud.has_colors();
+  const bool gathered = cloud.has_normals() || fields > 0;
+  Key last_key = VoxelTable<Key>::kEmpty;
+  std::uint32_t id = 0;
+  for (std::size_t i = 0; i < cloud.size(); ++i) {
+    const Key key = keys[i];
+    if (key < low || key >= high) continue;
+    if (key != last_key) {  // consecutive points often share a voxel: skip the lookup
+      const auto next = static_cast<std::uint32_t>(sums.key.size());
+      id = table.find_or_insert(key, next);
+      last_key = key;
+      if (id == next) {
+        sums.key.push_back(key);
+        sums.sum.push_back(VoxelSum{Eigen::Vector3d::Zero(), 0, 0, 0, 0});
+        if (gathered) {
+          if (cloud.has_normals()) sums.normal.emplace_back(Eigen::Vector3d::Zero());
+          sums.scalar.resize(sums.scalar.size() + fields, 0.0);
+          sums.first.push_back(static_cast<std::uint32_t>(i));
+        }
+      }
+    }
+    VoxelSum& sum = sums.sum[id];
+    sum.position += cloud.positions[i].cast<double>();
+    if (with_colors) {
+      sum.r += cloud.colors[i].r;
+      sum.g += cloud.colors[i].g;
+      sum.b += cloud.colors[i].b;
+    }
+    ++sum.count;
+    if (gathered) {
+      if (cloud.has_normals()) sums.normal[id] += cloud.normals[i].cast<double>();
+      for (std::size_t f = 0; f < fields; ++f) {
+        sums.scalar[id * fields + f] += cloud.scalars[f].values[i];
+      }
+    }
+  }
+  return sums;
 }
 
-// Start of every run of equal keys among the first `valid` sorted points, plus `valid`.
-std::vector<std::size_t> run_starts(const SortedPoints& sorted, std::size_t valid) {
-  constexpr std::size_t kChunk = 65536;
-  const std::size_t chunks = (valid + kChunk - 1) / kChunk;
-  std::vector<std::size_t> chunk_offset(chunks + 1, 0);
-  const auto is_start = [&](std::size_t i) { return i == 0 || sorted.key(i) != sorted.key(i - 1); };
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
-    std::size_t count = 0;
-    for (std::size_t i = c * kChunk; i < std::min(valid, (c + 1) * kChunk); ++i) count += is_start(i);
-    chunk_offset[c + 1] = count;
-  });
-  for (std::size_t c = 0; c < chunks; ++c) chunk_offset[c + 1] += chunk_offset[c];
-  std::vector<std::size_t> starts(chunk_offset[chunks] + 1);
-  tbb::parallel_for(std::size_t{0}, chunks, [&](std::size_t c) {
-    std::size_t out = chunk_offset[c];
-    for (std::size_t i = c * kChunk; i < std::min(valid, (c + 1) * kChunk); ++i) {
-      if (is_start(i)) starts[out++] = i;
+std::uint8_t mean_channel(std::uint64_t sum, std::uint32_t count) {
+  return static_cast<std::uint8_t>(std::lround(static_cast<double>(sum) / count));
+}
+
+// Writes the means of one range, in key order, from output index `base` on.
+template <typename Key>
+void write_range(const PointCloud& cloud, const RangeSums<Key>& sums, std::size_t base,
+                 VoxelGridResult& result) {
+  std::vector<std::uint32_t> order(sums.key.size());
+  for (std::size_t v = 0; v < order.size(); ++v) order[v] = static_cast<std::uint32_t>(v);
+  std::sort(order.begin(), order.end(),
+            [&](std::uint32_t a, std::uint32_t b) { return sums.key[a] < sums.key[b]; });
+  PointCloud& out = result.cloud;
+  const std::size_t fields = cloud.scalars.size();
+  for (std::size_t k = 0; k < order.size(); ++k) {
+    const std::uint32_t id = order[k];
+    const std::size_t v = base + k;
+    const VoxelSum& sum = sums.sum[id];
+    const std::uint32_t count = sum.count;
+    result.points_per_voxel[v] = count;
+    out.positions[v] = (sum.position / count).cast<float>();
+    if (cloud.has_colors()) {
+      out.colors[v] = Rgb8{mean_channel(sum.r, count), mean_channel(sum.g, count),
+                           mean_channel(sum.b, count)};
     }
+    if (cloud.has_normals()) {
+      const Eigen::Vector3d& normal = sums.normal[id];
+      const double norm = normal.norm();
+      out.normals[v] = norm > 0.0 ? Eigen::Vector3f((normal / norm).cast<float>())
+                                  : cloud.normals[sums.first[id]];
+    }
+    for (std::size_t f = 0; f < fields; ++f) {
+      out.scalars[f].values[v] = static_cast<float>(sums.scalar[id * fields + f] / count);
+    }
+  }
+}
+
+template <typename Key>
+void voxel_grid_hashed(const PointCloud& cloud, const KeyGrid& grid, int key_bits,
+                       VoxelGridResult& result) {
+  const std::size_t n = cloud.size();
+  // Keys, and a histogram of their top bits to split the key space evenly.
+  constexpr int kHistogramBits = 12;
+  const int shift = std::max(0, key_bits - kHistogramBits);
+  const std::size_t bins = (std::size_t{1} << (key_bits - shift)) + 1;  // + sentinel overflow
+  const auto keys = std::make_unique_for_overwrite<Key[]>(n);
+  const auto histogram = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, 65536), std::vector<std::size_t>(bins, 0),
+      [&](const auto& range, std::vector<std::size_t> counts) {
+        for (std::size_t i = range.begin(); i != range.end(); ++i) {
+          keys[i] = static_cast<Key>(grid.key(cloud.positions[i]));
+          if (keys[i] != grid.sentinel) ++counts[keys[i] >> shift];
+        }
+        return counts;
+      },
+      [](std::vector<std::size_t> a, const std::vector<std::size_t>& b) {
+        for (std::size_t k = 0; k < a.size(); ++k) a[k] += b[k];
+        return a;
+      });
+
+  // Ranges [bounds[r], bounds[r + 1]) of about equal point counts; the sentinel is excluded.
+  const std::size_t ranges =
+      static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
+  const std::size_t valid = n - result.report.non_finite;
+  std::vector<Key> bounds{0};
+  std::size_t running = 0;
+  for (std::size_t b = 0; b + 1 < bins && bounds.size() < ranges; ++b) {
+    running += histogram[b];
+    if (running * ranges >= bounds.size() * valid && running < valid) {
+      bounds.push_back(static_cast<Key>((b + 1) << shift));
+    }
+  }
+  bounds.push_back(static_cast<Key>(grid.sentinel));
+
+  std::vector<RangeSums<Key>> sums(bounds.size() - 1);
+  tbb::parallel_for(std::size_t{0}, sums.size(), [&](std::size_t r) {
+    sums[r] = accumulate_range<Key>(cloud, keys.get(), bounds[r], bounds[r + 1]);
   });
-  starts.back() = valid;
-  return starts;
+  std::vector<std::size_t> base(sums.size() + 1, 0);
+  for (std::size_t r = 0; r < sums.size(); ++r) base[r + 1] = base[r] + sums[r].key.size();
+
+  PointCloud& out = result.cloud;
+  out.positions.resize(base.back());
+  if (cloud.has_normals()) out.normals.resize(base.back());
+  if (cloud.has_colors()) out.colors.resize(base.back());
+  for (const ScalarField& field : cloud.scalars) {
+    out.scalars.push_back(ScalarField{field.name, std::vector<float>(base.back())});
+  }
+  result.points_per_voxel.resize(base.back());
+  tbb::parallel_for(std::size_t{0}, sums.size(), [&](std::size_t r) {
+    write_range(cloud, sums[r], base[r], result);
+  });
 }
 
 }  // namespace
@@ -149,25 +295,24 @@ VoxelGridResult voxel_down_sample(const PointCloud& cloud, float voxel_size) {
                                  "number of metres, got {}", voxel_size));
   }
   cloud.check_consistent();
-  if (cloud.size() > std::numeric_limits<std::uint32_t>::max()) {
-    throw InputError("voxel down-sampling: more than 2^32 points");
+  if (cloud.size() >= std::numeric_limits<std::uint32_t>::max()) {
+    throw InputError("voxel down-sampling: 2^32 points or more");
   }
-  const double voxel = voxel_size;
+  const double inverse = 1.0 / static_cast<double>(voxel_size);
   VoxelGridResult result;
   result.report.input_points = cloud.size();
 
   const Bounds bounds = position_bounds(cloud);
   result.report.non_finite = bounds.non_finite;
-  const std::size_t valid = cloud.size() - bounds.non_finite;
-  if (valid == 0) return result;
+  if (cloud.size() == bounds.non_finite) return result;
 
   // Checked before fast_floor's range matters: huge coordinates give huge extents.
-  const Eigen::Vector3d min_voxel(std::floor(bounds.min.x() / voxel),
-                                  std::floor(bounds.min.y() / voxel),
-                                  std::floor(bounds.min.z() / voxel));
-  const Eigen::Vector3d max_voxel(std::floor(bounds.max.x() / voxel),
-                                  std::floor(bounds.max.y() / voxel),
-                                  std::floor(bounds.max.z() / voxel));
+  const Eigen::Vector3d min_voxel(std::floor(bounds.min.x() * inverse),
+                                  std::floor(bounds.min.y() * inverse),
+                                  std::floor(bounds.min.z() * inverse));
+  const Eigen::Vector3d max_voxel(std::floor(bounds.max.x() * inverse),
+                                  std::floor(bounds.max.y() * inverse),
+                                  std::floor(bounds.max.z() * inverse));
   const Eigen::Vector3d extent = max_voxel - min_voxel + Eigen::Vector3d::Ones();
   if ((extent.array() > kMaxVoxelsPerAxis).any() ||
       (min_voxel.array().abs() > 0x1p61).any() || (max_voxel.array().abs() > 0x1p61).any()) {
@@ -177,67 +322,20 @@ VoxelGridResult voxel_down_sample(const PointCloud& cloud, float voxel_size) {
         voxel_size, extent.x(), extent.y(), extent.z(), kMaxVoxelsPerAxis));
   }
   KeyGrid grid;
+  grid.inverse_voxel_size = inverse;
   grid.origin = min_voxel;
   grid.ny = static_cast<std::uint64_t>(extent.y());
   grid.nz = static_cast<std::uint64_t>(extent.z());
   grid.sentinel = static_cast<std::uint64_t>(extent.x()) * grid.ny * grid.nz;
 
-  const SortedPoints sorted = sort_by_voxel(cloud, grid, voxel);
-  const std::vector<std::size_t> starts = run_starts(sorted, valid);
-  const std::size_t voxels = starts.size() - 1;
-
-  PointCloud& out = result.cloud;
-  out.positions.resize(voxels);
-  if (cloud.has_normals()) out.normals.resize(voxels);
-  if (cloud.has_colors()) out.colors.resize(voxels);
-  for (const ScalarField& field : cloud.scalars) {
-    out.scalars.push_back(ScalarField{field.name, std::vector<float>(voxels)});
+  // Keys must leave room for the table's empty marker (the all-ones value).
+  const int key_bits = std::bit_width(grid.sentinel);
+  if (grid.sentinel < std::numeric_limits<std::uint32_t>::max()) {
+    voxel_grid_hashed<std::uint32_t>(cloud, grid, key_bits, result);
+  } else {
+    voxel_grid_hashed<std::uint64_t>(cloud, grid, key_bits, result);
   }
-  result.points_per_voxel.resize(voxels);
-
-  // Per voxel: sums in double, in input order (the sort is stable), then means.
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, voxels, 1024), [&](const auto& range) {
-    for (std::size_t v = range.begin(); v != range.end(); ++v) {
-      const std::size_t begin = starts[v], end = starts[v + 1];
-      const double count = static_cast<double>(end - begin);
-      result.points_per_voxel[v] = static_cast<std::uint32_t>(end - begin);
-
-      Eigen::Vector3d position_sum = Eigen::Vector3d::Zero();
-      for (std::size_t i = begin; i < end; ++i) {
-        position_sum += cloud.positions[sorted.index(i)].cast<double>();
-      }
-      out.positions[v] = (position_sum / count).cast<float>();
-
-      if (cloud.has_normals()) {
-        Eigen::Vector3d normal_sum = Eigen::Vector3d::Zero();
-        for (std::size_t i = begin; i < end; ++i) {
-          normal_sum += cloud.normals[sorted.index(i)].cast<double>();
-        }
-        const double norm = normal_sum.norm();
-        out.normals[v] = norm > 0.0 ? (normal_sum / norm).cast<float>()
-                                    : cloud.normals[sorted.index(begin)];
-      }
-      if (cloud.has_colors()) {
-        std::uint64_t r = 0, g = 0, b = 0;
-        for (std::size_t i = begin; i < end; ++i) {
-          const Rgb8& c = cloud.colors[sorted.index(i)];
-          r += c.r;
-          g += c.g;
-          b += c.b;
-        }
-        const auto mean = [count](std::uint64_t sum) {
-          return static_cast<std::uint8_t>(std::lround(static_cast<double>(sum) / count));
-        };
-        out.colors[v] = Rgb8{mean(r), mean(g), mean(b)};
-      }
-      for (std::size_t f = 0; f < cloud.scalars.size(); ++f) {
-        double sum = 0.0;
-        for (std::size_t i = begin; i < end; ++i) sum += cloud.scalars[f].values[sorted.index(i)];
-        out.scalars[f].values[v] = static_cast<float>(sum / count);
-      }
-    }
-  });
-  result.report.output_points = voxels;
+  result.report.output_points = result.cloud.size();
   return result;
 }
 

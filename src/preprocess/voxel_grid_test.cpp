@@ -15,8 +15,8 @@
 namespace locard {
 namespace {
 
-// The reference: a std::map keyed by the voxel coordinates floor(p / voxel_size) (in double,
-// as documented), sums in double in input order; std::map's (x, y, z) lexicographic order is
+// The reference: a std::map keyed by the voxel coordinates floor(p * (1 / voxel_size)) (in
+// double, as documented), sums in double in input order; std::map's (x, y, z) lexicographic order is
 // the documented output order.
 VoxelGridResult brute_force_voxel_grid(const PointCloud& cloud, float voxel_size) {
   struct Sum {
@@ -30,14 +30,15 @@ VoxelGridResult brute_force_voxel_grid(const PointCloud& cloud, float voxel_size
   std::map<std::tuple<double, double, double>, Sum> voxels;
   VoxelGridResult result;
   result.report.input_points = cloud.size();
-  const double v = voxel_size;
+  const double inverse = 1.0 / static_cast<double>(voxel_size);
   for (std::size_t i = 0; i < cloud.size(); ++i) {
     const Eigen::Vector3f& p = cloud.positions[i];
     if (!std::isfinite(p.x()) || !std::isfinite(p.y()) || !std::isfinite(p.z())) {
       ++result.report.non_finite;
       continue;
     }
-    Sum& sum = voxels[{std::floor(p.x() / v), std::floor(p.y() / v), std::floor(p.z() / v)}];
+    Sum& sum = voxels[{std::floor(p.x() * inverse), std::floor(p.y() * inverse),
+                       std::floor(p.z() * inverse)}];
     if (sum.count == 0 && cloud.has_normals()) sum.first_normal = cloud.normals[i];
     ++sum.count;
     sum.position += p.cast<double>();
@@ -162,7 +163,7 @@ TEST(VoxelGrid, OppositeNormalsInOneVoxelKeepTheFirst) {
   EXPECT_EQ(r.cloud.normals[0], Eigen::Vector3f::UnitX());
 }
 
-TEST(VoxelGrid, SparseHugeGridUsesTheWideKeyPath) {
+TEST(VoxelGrid, SparseHugeGridUses64BitKeys) {
   // 1e6 voxels per axis: 10^18 voxels do not fit 32-bit keys.
   PointCloud cloud = random_cloud(5000, 3, 500.f);
   cloud.positions.push_back(cloud.positions[17]);  // a duplicate
