@@ -1,0 +1,469 @@
+// Sparse-block TSDF fusion and coloured marching cubes; see tsdf_volume.hpp for the maths.
+#include <locard/core/error.hpp>
+#include <locard/surface/tsdf_volume.hpp>
+
+#include "surface/marching_cubes_cases.hpp"
+
+#include <tbb/blocked_range.h>
+#include <tbb/combinable.h>
+#include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace locard {
+namespace {
+
+constexpr int kSide = TsdfVolume::kBlockSide;
+constexpr int kVoxels = kSide * kSide * kSide;
+constexpr int kKeyBits = 21;
+constexpr std::int64_t kKeyOffset = std::int64_t{1} << (kKeyBits - 1);
+constexpr std::uint64_t kKeyMask = (std::uint64_t{1} << kKeyBits) - 1;
+
+// Stored voxel: colour as 8.8 fixed point so the running mean keeps moving after many frames.
+struct Cell {
+  float tsdf = 1.f;
+  float weight = 0.f;
+  std::array<std::uint16_t, 3> rgb{};
+  std::uint16_t pad = 0;
+};
+static_assert(sizeof(Cell) == 16);
+
+struct Block {
+  std::array<Cell, kVoxels> cells;
+};
+
+// Packs block coordinates (each in [-2^20, 2^20)) into 63 bits; sorting keys sorts by z, y, x.
+std::uint64_t pack(int x, int y, int z) {
+  return static_cast<std::uint64_t>(x + kKeyOffset) |
+         (static_cast<std::uint64_t>(y + kKeyOffset) << kKeyBits) |
+         (static_cast<std::uint64_t>(z + kKeyOffset) << (2 * kKeyBits));
+}
+Eigen::Vector3i unpack(std::uint64_t key) {
+  return {static_cast<int>(static_cast<std::int64_t>(key & kKeyMask) - kKeyOffset),
+          static_cast<int>(static_cast<std::int64_t>((key >> kKeyBits) & kKeyMask) - kKeyOffset),
+          static_cast<int>(static_cast<std::int64_t>((key >> (2 * kKeyBits)) & kKeyMask) -
+                           kKeyOffset)};
+}
+bool in_key_range(int c) { return c >= -kKeyOffset + 1 && c < kKeyOffset - 1; }
+
+int floor_div(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
+
+constexpr int local_index(int x, int y, int z) { return x + kSide * (y + kSide * z); }
+
+std::uint8_t to_u8(std::uint16_t fixed) {
+  return static_cast<std::uint8_t>(std::min(255, (fixed + 128) >> 8));
+}
+
+}  // namespace
+
+struct TsdfVolume::Impl {
+  TsdfOptions options;
+  std::unordered_map<std::uint64_t, std::uint32_t> index;  // block key -> blocks[i]
+  std::vector<std::unique_ptr<Block>> blocks;
+  std::vector<std::uint64_t> keys;  // key of blocks[i]
+  std::size_t frames = 0;
+  bool has_color = false;
+
+  std::uint32_t find_or_add(std::uint64_t key) {
+    auto [it, added] = index.try_emplace(key, static_cast<std::uint32_t>(blocks.size()));
+    if (added) {
+      blocks.push_back(std::make_unique<Block>());
+      keys.push_back(key);
+    }
+    return it->second;
+  }
+  const Block* find(std::uint64_t key) const {
+    auto it = index.find(key);
+    return it == index.end() ? nullptr : blocks[it->second].get();
+  }
+};
+
+TsdfVolume::TsdfVolume(const TsdfOptions& options) : impl_(std::make_unique<Impl>()) {
+  if (!(options.voxel_size > 0.0) || !std::isfinite(options.voxel_size))
+    throw InputError("TSDF: the voxel size must be a positive number of metres, got " +
+                     std::to_string(options.voxel_size));
+  if (!(options.truncation >= options.voxel_size) || !std::isfinite(options.truncation))
+    throw InputError("TSDF: the truncation must be at least one voxel (" +
+                     std::to_string(options.voxel_size) + " m), got " +
+                     std::to_string(options.truncation));
+  if (!(options.max_depth_m > options.min_depth_m))
+    throw InputError("TSDF: the maximum depth must exceed the minimum depth");
+  impl_->options = options;
+}
+TsdfVolume::~TsdfVolume() = default;
+TsdfVolume::TsdfVolume(TsdfVolume&&) noexcept = default;
+TsdfVolume& TsdfVolume::operator=(TsdfVolume&&) noexcept = default;
+
+const TsdfOptions& TsdfVolume::options() const { return impl_->options; }
+
+Eigen::Vector3d TsdfVolume::voxel_center(const Eigen::Vector3i& g) const {
+  return (g.cast<double>() + Eigen::Vector3d::Constant(0.5)) * impl_->options.voxel_size;
+}
+
+std::optional<TsdfVoxel> TsdfVolume::voxel(const Eigen::Vector3i& g) const {
+  const Eigen::Vector3i b(floor_div(g.x(), kSide), floor_div(g.y(), kSide),
+                          floor_div(g.z(), kSide));
+  const Block* block = impl_->find(pack(b.x(), b.y(), b.z()));
+  if (!block) return std::nullopt;
+  const Eigen::Vector3i l = g - b * kSide;
+  const Cell& c = block->cells[local_index(l.x(), l.y(), l.z())];
+  return TsdfVoxel{c.tsdf, c.weight, Rgb8{to_u8(c.rgb[0]), to_u8(c.rgb[1]), to_u8(c.rgb[2])}, 0};
+}
+
+void TsdfVolume::set_voxel(const Eigen::Vector3i& g, const TsdfVoxel& value) {
+  const Eigen::Vector3i b(floor_div(g.x(), kSide), floor_div(g.y(), kSide),
+                          floor_div(g.z(), kSide));
+  if (!in_key_range(b.x()) || !in_key_range(b.y()) || !in_key_range(b.z()))
+    throw InputError("TSDF: voxel index out of range");
+  Block& block = *impl_->blocks[impl_->find_or_add(pack(b.x(), b.y(), b.z()))];
+  const Eigen::Vector3i l = g - b * kSide;
+  Cell& c = block.cells[local_index(l.x(), l.y(), l.z())];
+  c.tsdf = value.tsdf;
+  c.weight = value.weight;
+  c.rgb = {static_cast<std::uint16_t>(value.color.r << 8),
+           static_cast<std::uint16_t>(value.color.g << 8),
+           static_cast<std::uint16_t>(value.color.b << 8)};
+  impl_->has_color = true;
+}
+
+TsdfStats TsdfVolume::stats() const {
+  TsdfStats s;
+  s.blocks = impl_->blocks.size();
+  s.frames = impl_->frames;
+  // Blocks, their owning pointers and keys, and the hash map's nodes and buckets.
+  s.memory_bytes = s.blocks * (sizeof(Block) + sizeof(void*) + sizeof(std::uint64_t) +
+                               sizeof(std::uint64_t) * 3) +
+                   impl_->index.bucket_count() * sizeof(void*);
+  return s;
+}
+
+void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_camera) {
+  const TsdfOptions& opt = impl_->options;
+  const DepthImage& depth = frame.depth;
+  const CameraIntrinsics& k = frame.intrinsics;
+  if (depth.empty()) return;
+  if (!k.valid())
+    throw InputError("TSDF: frame " + std::to_string(frame.frame_index) +
+                     " has no valid intrinsics");
+  if (k.width != depth.width() || k.height != depth.height())
+    throw InputError("TSDF: frame " + std::to_string(frame.frame_index) + ": depth image " +
+                     std::to_string(depth.width()) + "x" + std::to_string(depth.height()) +
+                     " does not match the intrinsics " + std::to_string(k.width) + "x" +
+                     std::to_string(k.height));
+  const bool with_color = opt.integrate_color && !frame.color.empty() &&
+                          frame.color.width() == depth.width() &&
+                          frame.color.height() == depth.height();
+  if (with_color) impl_->has_color = true;
+  ++impl_->frames;
+
+  const int width = depth.width();
+  const int height = depth.height();
+  const float fx = static_cast<float>(k.fx), fy = static_cast<float>(k.fy);
+  const float cx = static_cast<float>(k.cx), cy = static_cast<float>(k.cy);
+  const float voxel = static_cast<float>(opt.voxel_size);
+  const float trunc = static_cast<float>(opt.truncation);
+  const float block_size = voxel * kSide;
+
+  // Depth in metres (0 = no reading or out of range) and the ray-length factor per pixel.
+  std::vector<float> depth_m(static_cast<std::size_t>(width) * height);
+  std::vector<float> x_slope(width), y_slope(height);
+  for (int u = 0; u < width; ++u) x_slope[u] = (static_cast<float>(u) - cx) / fx;
+  for (int v = 0; v < height; ++v) y_slope[v] = (static_cast<float>(v) - cy) / fy;
+  const float scale = static_cast<float>(frame.depth_scale);
+  const float min_d = static_cast<float>(opt.min_depth_m);
+  const float max_d = static_cast<float>(opt.max_depth_m);
+
+  const Eigen::Matrix3f R_wc = T_world_camera.linear().cast<float>();
+  const Eigen::Vector3f t_wc = T_world_camera.translation().cast<float>();
+
+  // --- 1. allocation: blocks within the truncation band of every valid pixel ---------------
+  tbb::combinable<std::vector<std::uint64_t>> touched;
+  tbb::parallel_for(tbb::blocked_range<int>(0, height, 8), [&](const tbb::blocked_range<int>& rr) {
+    std::vector<std::uint64_t>& out = touched.local();
+    Eigen::Vector3i last_lo(1 << 30, 0, 0), last_hi(0, 0, 0);
+    for (int v = rr.begin(); v != rr.end(); ++v) {
+      const std::uint16_t* row = depth.row(v);
+      float* drow = depth_m.data() + static_cast<std::size_t>(v) * width;
+      for (int u = 0; u < width; ++u) {
+        const float d = static_cast<float>(row[u]) / scale;
+        const bool ok = row[u] != 0 && d >= min_d && d <= max_d;
+        drow[u] = ok ? d : 0.f;
+        if (!ok) continue;
+        const Eigen::Vector3f p = R_wc * Eigen::Vector3f(x_slope[u] * d, y_slope[v] * d, d) + t_wc;
+        const Eigen::Vector3f lo_f = (p.array() - trunc) / block_size;
+        const Eigen::Vector3f hi_f = (p.array() + trunc) / block_size;
+        if (!lo_f.allFinite() || !hi_f.allFinite()) continue;
+        const Eigen::Vector3i lo(static_cast<int>(std::floor(lo_f.x())),
+                                 static_cast<int>(std::floor(lo_f.y())),
+                                 static_cast<int>(std::floor(lo_f.z())));
+        const Eigen::Vector3i hi(static_cast<int>(std::floor(hi_f.x())),
+                                 static_cast<int>(std::floor(hi_f.y())),
+                                 static_cast<int>(std::floor(hi_f.z())));
+        if (lo == last_lo && hi == last_hi) continue;  // neighbours mostly touch the same blocks
+        last_lo = lo;
+        last_hi = hi;
+        if (!in_key_range(lo.x()) || !in_key_range(lo.y()) || !in_key_range(lo.z()) ||
+            !in_key_range(hi.x()) || !in_key_range(hi.y()) || !in_key_range(hi.z()))
+          continue;
+        for (int z = lo.z(); z <= hi.z(); ++z)
+          for (int y = lo.y(); y <= hi.y(); ++y)
+            for (int x = lo.x(); x <= hi.x(); ++x) out.push_back(pack(x, y, z));
+      }
+    }
+    std::sort(out.begin(), out.end());
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+  });
+  std::vector<std::uint64_t> keys;
+  touched.combine_each([&keys](const std::vector<std::uint64_t>& v) {
+    keys.insert(keys.end(), v.begin(), v.end());
+  });
+  tbb::parallel_sort(keys.begin(), keys.end());
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  std::vector<std::uint32_t> active(keys.size());
+  for (std::size_t i = 0; i < keys.size(); ++i) active[i] = impl_->find_or_add(keys[i]);
+
+  // --- 2. update, parallel over the touched blocks ------------------------------------------
+  const Eigen::Isometry3f T_camera_world = T_world_camera.inverse().cast<float>();
+  const Eigen::Matrix3f R = T_camera_world.linear();
+  const Eigen::Vector3f t = T_camera_world.translation();
+  const Eigen::Vector3f step_x = R.col(0) * voxel;
+  const Eigen::Vector3f step_y = R.col(1) * voxel;
+  const Eigen::Vector3f step_z = R.col(2) * voxel;
+  const float inv_trunc = 1.f / trunc;
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, active.size(), 4),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t a = range.begin(); a != range.end(); ++a) {
+      Block& block = *impl_->blocks[active[a]];
+      const Eigen::Vector3i b = unpack(keys[a]);
+      const Eigen::Vector3f origin =
+          ((b * kSide).cast<float>() + Eigen::Vector3f::Constant(0.5f)) * voxel;
+      const Eigen::Vector3f p0 = R * origin + t;
+      for (int z = 0; z < kSide; ++z) {
+        for (int y = 0; y < kSide; ++y) {
+          Eigen::Vector3f p = p0 + step_z * static_cast<float>(z) + step_y * static_cast<float>(y);
+          Cell* cell = &block.cells[local_index(0, y, z)];
+          for (int x = 0; x < kSide; ++x, p += step_x, ++cell) {
+            if (p.z() <= 0.f) continue;
+            const float inv_z = 1.f / p.z();
+            const float uf = fx * p.x() * inv_z + cx + 0.5f;
+            const float vf = fy * p.y() * inv_z + cy + 0.5f;
+            if (!(uf >= 0.f && vf >= 0.f && uf < static_cast<float>(width) &&
+                  vf < static_cast<float>(height)))
+              continue;
+            const int u = static_cast<int>(uf);
+            const int v = static_cast<int>(vf);
+            const float d = depth_m[static_cast<std::size_t>(v) * width + u];
+            if (d <= 0.f) continue;
+            const float xs = x_slope[u], ys = y_slope[v];
+            const float sdf = (d - p.z()) * std::sqrt(1.f + xs * xs + ys * ys);
+            if (sdf <= -trunc) continue;
+            const float tsdf = std::min(1.f, sdf * inv_trunc);
+            const float w = cell->weight;
+            const float inv_w = 1.f / (w + 1.f);
+            cell->tsdf = (cell->tsdf * w + tsdf) * inv_w;
+            if (with_color) {
+              const std::uint8_t* rgb = frame.color.row(v) + 3 * u;
+              for (int c = 0; c < 3; ++c) {
+                const float mean = (static_cast<float>(cell->rgb[c]) * w +
+                                    static_cast<float>(rgb[c]) * 256.f) * inv_w;
+                cell->rgb[c] = static_cast<std::uint16_t>(std::min(65535.f, mean + 0.5f));
+              }
+            }
+            cell->weight = w + 1.f;
+          }
+        }
+      }
+    }
+  });
+}
+
+TriangleMesh TsdfVolume::extract_mesh() const {
+  const Impl& impl = *impl_;
+  const float voxel = static_cast<float>(impl.options.voxel_size);
+  const std::size_t n_blocks = impl.blocks.size();
+
+  // Blocks in key order: the output order then does not depend on the integration history's
+  // allocation order nor on the thread count.
+  std::vector<std::uint64_t> sorted_keys = impl.keys;
+  std::sort(sorted_keys.begin(), sorted_keys.end());
+  std::unordered_map<std::uint64_t, std::uint32_t> rank;  // key -> position in sorted_keys
+  rank.reserve(n_blocks);
+  for (std::size_t i = 0; i < n_blocks; ++i) rank.emplace(sorted_keys[i], static_cast<std::uint32_t>(i));
+
+  // The 2x2x2 neighbourhood of blocks (self and +x, +y, +z neighbours), by sorted rank.
+  constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+  auto neighbours = [&](std::size_t r) {
+    const Eigen::Vector3i b = unpack(sorted_keys[r]);
+    std::array<std::uint32_t, 8> out;
+    for (int n = 0; n < 8; ++n) {
+      const int x = b.x() + (n & 1), y = b.y() + ((n >> 1) & 1), z = b.z() + ((n >> 2) & 1);
+      if (!in_key_range(x) || !in_key_range(y) || !in_key_range(z)) {
+        out[n] = kNone;
+        continue;
+      }
+      auto it = rank.find(pack(x, y, z));
+      out[n] = it == rank.end() ? kNone : it->second;
+    }
+    return out;
+  };
+  auto block_at = [&](std::uint32_t r) -> const Block& {
+    return *impl.blocks[impl.index.at(sorted_keys[r])];
+  };
+
+  // --- pass A: one vertex per crossed edge owned by a voxel of the block -------------------
+  struct BlockVertices {
+    std::vector<std::uint32_t> edge;  // local voxel index * 3 + axis, increasing
+    std::vector<Eigen::Vector3f> position;
+    std::vector<Rgb8> color;
+  };
+  std::vector<BlockVertices> vertices(n_blocks);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_blocks, 4),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t r = range.begin(); r != range.end(); ++r) {
+      const auto nb = neighbours(r);
+      const Block& self = block_at(static_cast<std::uint32_t>(r));
+      const Eigen::Vector3i origin = unpack(sorted_keys[r]) * kSide;
+      BlockVertices& out = vertices[r];
+      for (int z = 0; z < kSide; ++z)
+        for (int y = 0; y < kSide; ++y)
+          for (int x = 0; x < kSide; ++x) {
+            const Cell& c0 = self.cells[local_index(x, y, z)];
+            if (c0.weight <= 0.f) continue;
+            for (int axis = 0; axis < 3; ++axis) {
+              int n[3] = {x, y, z};
+              ++n[axis];
+              const Cell* c1;
+              if (n[axis] < kSide) {
+                c1 = &self.cells[local_index(n[0], n[1], n[2])];
+              } else {
+                const std::uint32_t other = nb[1 << axis];
+                if (other == kNone) continue;
+                n[axis] = 0;
+                c1 = &block_at(other).cells[local_index(n[0], n[1], n[2])];
+              }
+              if (c1->weight <= 0.f || (c0.tsdf < 0.f) == (c1->tsdf < 0.f)) continue;
+              const float s = c0.tsdf / (c0.tsdf - c1->tsdf);
+              Eigen::Vector3f p = ((origin + Eigen::Vector3i(x, y, z)).cast<float>() +
+                                   Eigen::Vector3f::Constant(0.5f)) * voxel;
+              p[axis] += s * voxel;
+              out.edge.push_back(static_cast<std::uint32_t>(local_index(x, y, z) * 3 + axis));
+              out.position.push_back(p);
+              Rgb8 col;
+              std::uint8_t* dst[3] = {&col.r, &col.g, &col.b};
+              for (int ch = 0; ch < 3; ++ch) {
+                const float v0 = c0.rgb[ch], v1 = c1->rgb[ch];
+                *dst[ch] = to_u8(static_cast<std::uint16_t>(v0 + s * (v1 - v0) + 0.5f));
+              }
+              out.color.push_back(col);
+            }
+          }
+    }
+  });
+  std::vector<std::size_t> vertex_offset(n_blocks + 1, 0);
+  for (std::size_t r = 0; r < n_blocks; ++r)
+    vertex_offset[r + 1] = vertex_offset[r] + vertices[r].edge.size();
+
+  // --- pass B: triangles of every cube whose origin voxel lies in the block ----------------
+  const auto& cases = detail::marching_cubes_cases();
+  std::vector<std::vector<std::array<std::uint32_t, 3>>> triangles(n_blocks);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n_blocks, 4),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+    for (std::size_t r = range.begin(); r != range.end(); ++r) {
+      const auto nb = neighbours(r);
+      std::array<const Block*, 8> nblock;
+      for (int n = 0; n < 8; ++n) nblock[n] = nb[n] == kNone ? nullptr : &block_at(nb[n]);
+      auto& out = triangles[r];
+      for (int z = 0; z < kSide; ++z)
+        for (int y = 0; y < kSide; ++y)
+          for (int x = 0; x < kSide; ++x) {
+            std::array<const Cell*, 8> corner;
+            int cube = 0;
+            bool complete = true;
+            for (int c = 0; c < 8 && complete; ++c) {
+              int p[3] = {x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1)};
+              int which = 0;
+              for (int a = 0; a < 3; ++a)
+                if (p[a] == kSide) {
+                  p[a] = 0;
+                  which |= 1 << a;
+                }
+              const Block* blk = nblock[which];
+              if (!blk) {
+                complete = false;
+                break;
+              }
+              corner[c] = &blk->cells[local_index(p[0], p[1], p[2])];
+              if (corner[c]->weight <= 0.f) complete = false;
+              if (corner[c]->tsdf < 0.f) cube |= 1 << c;
+            }
+            if (!complete || cube == 0 || cube == 255) continue;
+            const detail::MarchingCubesCase& mc = cases[cube];
+            std::array<std::uint32_t, 12> edge_vertex;
+            edge_vertex.fill(kNone);
+            for (int t = 0; t < mc.triangle_count; ++t) {
+              std::array<std::uint32_t, 3> tri;
+              for (int j = 0; j < 3; ++j) {
+                const int e = mc.triangles[t][j];
+                if (edge_vertex[e] == kNone) {
+                  const int lo = detail::edge_low_corner(e);
+                  int p[3] = {x + (lo & 1), y + ((lo >> 1) & 1), z + ((lo >> 2) & 1)};
+                  int which = 0;
+                  for (int a = 0; a < 3; ++a)
+                    if (p[a] == kSide) {
+                      p[a] = 0;
+                      which |= 1 << a;
+                    }
+                  const std::uint32_t owner = nb[which];
+                  const BlockVertices& bv = vertices[owner];
+                  const std::uint32_t id = static_cast<std::uint32_t>(
+                      local_index(p[0], p[1], p[2]) * 3 + detail::edge_axis(e));
+                  const auto it = std::lower_bound(bv.edge.begin(), bv.edge.end(), id);
+                  edge_vertex[e] = static_cast<std::uint32_t>(vertex_offset[owner] +
+                                                              (it - bv.edge.begin()));
+                }
+                tri[j] = edge_vertex[e];
+              }
+              out.push_back(tri);
+            }
+          }
+    }
+  });
+
+  // --- gather, dropping vertices no triangle uses (edges of incomplete cubes) ---------------
+  const std::size_t total_vertices = vertex_offset[n_blocks];
+  std::vector<std::uint32_t> remap(total_vertices, 0);
+  std::size_t total_triangles = 0;
+  for (const auto& t : triangles) {
+    total_triangles += t.size();
+    for (const auto& tri : t)
+      for (std::uint32_t v : tri) remap[v] = 1;
+  }
+  std::uint32_t next = 0;
+  for (auto& m : remap) m = m ? next++ : kNone;
+
+  TriangleMesh mesh;
+  mesh.vertices.resize(next);
+  if (impl.has_color) mesh.vertex_colors.resize(next);
+  tbb::parallel_for(std::size_t{0}, n_blocks, [&](std::size_t r) {
+    const BlockVertices& bv = vertices[r];
+    for (std::size_t i = 0; i < bv.edge.size(); ++i) {
+      const std::uint32_t m = remap[vertex_offset[r] + i];
+      if (m == kNone) continue;
+      mesh.vertices[m] = bv.position[i];
+      if (impl.has_color) mesh.vertex_colors[m] = bv.color[i];
+    }
+  });
+  mesh.triangles.reserve(total_triangles);
+  for (const auto& t : triangles)
+    for (const auto& tri : t) mesh.triangles.push_back({remap[tri[0]], remap[tri[1]], remap[tri[2]]});
+  return mesh;
+}
+
+}  // namespace locard
