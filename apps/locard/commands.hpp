@@ -25,5 +25,7 @@ void register_info(CLI::App& app, GlobalOptions& global);
 void register_convert(CLI::App& app, GlobalOptions& global);
 void register_register(CLI::App& app, GlobalOptions& global);
 void register_scan_sim(CLI::App& app, GlobalOptions& global);
+void register_align(CLI::App& app, GlobalOptions& global);
+void register_eval_trajectory(CLI::App&, GlobalOptions&);
 
 }  // namespace locard::cli

@@ -1,0 +1,148 @@
+#pragma once
+// Whole-sequence alignment: the reference paper's sections III-D and III-E (Algorithm 1).
+//
+//  1. Every frame becomes a camera-frame cloud: depth back-projected (stride), voxel grid of
+//     `voxel_size`, normals towards the sensor. A frame with fewer than min_frame_points points
+//     (depth all zero, covered lens) is reported by index and left out.
+//  2. Sequential registration, each frame against a world-frame model of frames already
+//     registered (voxel grid of voxel_size, normals averaged per voxel):
+//       cumulative  the model holds every registered frame (the paper's scheme). The initial
+//                   pose is feature-based: FPFH + RANSAC + SVD (global_registration.hpp) of the
+//                   frame against the model ("after SVD"); ICP refines it ("after ICP"). The
+//                   previous frame's pose is tried as a second initial guess and the ICP result
+//                   with the higher fitness (then lower RMSE) wins.
+//       odometry    frame-to-local-model tracking for long video: the model holds the last
+//                   `local_model_frames` keyframes; the initial guess is the constant-velocity
+//                   prediction, refined by coloured ICP (Park et al. 2017: photometric +
+//                   geometric terms, so a textured wall still constrains the motion along it).
+//                   Feature registration is the fall-back when ICP fails.
+//     A frame is accepted when ICP succeeds with fitness >= min_fitness and inlier RMSE <=
+//     max_inlier_rmse_ratio * voxel_size. Otherwise it is reported by index with the reason and
+//     left out of the trajectory (never given a guessed pose). After max_consecutive_failures
+//     failures in a row, the next usable frame starts a new piece; pieces are joined later by
+//     loop closure when possible, and reported otherwise.
+//  3. Loop closure between keyframes (every frame in cumulative mode, every keyframe_interval
+//     registered frames in odometry mode): candidates are pairs far apart in the sequence
+//     whose cameras are within loop_max_distance_m and loop_max_angle_deg (pose proximity),
+//     plus, by feature registration, the first and last keyframes of every piece (the
+//     first/last overlap of a turn, found even after large drift). Each candidate is verified
+//     by ICP: fitness >= loop_min_fitness and inlier RMSE <= max_inlier_rmse_ratio *
+//     voxel_size; a verified candidate becomes an uncertain pose-graph edge.
+//  4. Pose graph (pose_graph.hpp): nodes are the registered frames, odometry edges join
+//     consecutive registered frames (information from their overlap), loop edges as above;
+//     wrong loop edges are pruned by the line process and the post-check.
+// Randomness (RANSAC) is seeded by `seed`; the same input and options give the same result.
+
+#include <locard/alignment/pose_graph.hpp>
+#include <locard/core/point_cloud.hpp>
+#include <locard/core/pose.hpp>
+#include <locard/core/progress.hpp>
+#include <locard/io/rgbd_sequence.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace locard {
+
+enum class AlignmentMode { Cumulative, Odometry };
+std::string_view to_string(AlignmentMode mode);
+std::optional<AlignmentMode> parse_alignment_mode(std::string_view name);
+
+struct AlignmentOptions {
+  AlignmentMode mode = AlignmentMode::Cumulative;
+  // Frames
+  int stride = 2;                  // back-projection stride in pixels
+  double min_depth_m = 0.3;
+  double max_depth_m = 4.0;
+  double voxel_size = 0.02;        // frame clouds, model and fused output (metres)
+  std::size_t min_frame_points = 500;
+  std::size_t first_frame = 0;     // frames [first_frame, first_frame + max_frames) are used
+  std::size_t max_frames = 0;      // 0: all
+  // Registration
+  double feature_voxel_size = 0.05;  // FPFH + RANSAC resolution
+  double min_fitness = 0.3;
+  double max_inlier_rmse_ratio = 0.8;  // x voxel_size
+  std::size_t local_model_frames = 8;  // odometry: keyframes in the local model
+  std::size_t max_consecutive_failures = 10;
+  // Loop closure
+  bool loop_closure = true;
+  std::size_t keyframe_interval = 5;   // odometry mode
+  std::size_t loop_min_separation = 10;  // frames apart in the sequence
+  double loop_max_distance_m = 1.0;
+  double loop_max_angle_deg = 20.0;
+  double loop_min_fitness = 0.3;
+  std::size_t max_loop_candidates = 200;  // nearest first
+  PoseGraphOptions pose_graph;
+  std::uint64_t seed = 0;
+  ProgressCallback progress;  // (frames done, frames total) over stage 2
+};
+
+enum class FrameStatus { Registered, Unusable, Failed };
+std::string_view to_string(FrameStatus status);
+
+struct FrameAlignment {
+  std::size_t sequence_index = 0;  // index into RgbdSequence::frames
+  std::int64_t frame_index = -1;
+  double timestamp = 0.0;
+  FrameStatus status = FrameStatus::Unusable;
+  std::string reason;              // why not registered; empty when registered
+  std::size_t piece = 0;           // which connected piece (after loop closure)
+  std::size_t points = 0;          // after the voxel grid
+  std::optional<Isometry3d> T_world_camera_svd;    // after feature alignment (when run)
+  std::optional<Isometry3d> T_world_camera_icp;    // after ICP (registered frames)
+  std::optional<Isometry3d> T_world_camera_final;  // after loop closure
+  double fitness = 0.0;
+  double inlier_rmse = 0.0;
+  std::string initialisation;      // "features", "previous pose", "prediction", "first frame"
+};
+
+struct LoopCandidate {
+  std::size_t source = 0;  // sequence indices
+  std::size_t target = 0;
+  std::string found_by;    // "proximity" or "features"
+  bool accepted = false;   // verified and kept through the pose graph
+  std::string reason;      // why rejected
+  double fitness = 0.0;
+  double inlier_rmse = 0.0;
+  double chi2_before = 0.0;   // loop residual at the ICP poses
+  double chi2_after = 0.0;    // after the pose graph
+  double confidence = 0.0;    // line-process weight
+  Isometry3d T_target_source = Isometry3d::Identity();
+};
+
+struct AlignmentTimings {
+  double prepare_s = 0.0;
+  double register_s = 0.0;
+  double loop_closure_s = 0.0;
+  double pose_graph_s = 0.0;
+  double total_s = 0.0;
+};
+
+struct AlignmentResult {
+  AlignmentOptions options;
+  std::vector<FrameAlignment> frames;  // one per frame used, in sequence order
+  std::vector<LoopCandidate> loops;
+  PoseGraph graph;                     // nodes in the order of `node_frames`
+  std::vector<std::size_t> node_frames;  // node -> index into `frames`
+  PoseGraphResult pose_graph;
+  std::size_t pieces = 0;              // connected pieces after loop closure
+  AlignmentTimings timings;
+
+  // Registered frames with their final poses (TUM-ready); piece < 0 means all pieces.
+  Trajectory trajectory(long piece = -1) const;
+  std::vector<std::int64_t> unregistered_frame_indices() const;
+};
+
+// Throws InputError for unusable options or a sequence without frames.
+AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOptions& options);
+
+// The registered frames fused into one coloured cloud in the world frame (voxel grid of
+// voxel_size): frames are re-read from the sequence. piece < 0: all pieces.
+PointCloud fuse_aligned_frames(const RgbdSequence& sequence, const AlignmentResult& result,
+                               double voxel_size, long piece = -1);
+
+}  // namespace locard
