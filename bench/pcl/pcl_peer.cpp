@@ -18,6 +18,7 @@
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
+#include <ctime>
 #include <limits>
 #include <string>
 
@@ -27,23 +28,30 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
+// Process CPU time (all threads), seconds.
+double cpu_seconds() { return static_cast<double>(std::clock()) / CLOCKS_PER_SEC; }
+
 int voxel(const char* path, float leaf, int repeats) {
   pcl::PointCloud<pcl::PointXYZRGB>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZRGB>);
   locard_pcl::read_ply(path, *cloud);
   double best = std::numeric_limits<double>::infinity();
+  double best_cpu = std::numeric_limits<double>::infinity();
   std::size_t out_points = 0;
   for (int r = 0; r < repeats; ++r) {
     pcl::PointCloud<pcl::PointXYZRGB> down;
+    const double cpu_start = cpu_seconds();
     const auto start = std::chrono::steady_clock::now();
     pcl::VoxelGrid<pcl::PointXYZRGB> grid;
     grid.setInputCloud(cloud);
     grid.setLeafSize(leaf, leaf, leaf);
     grid.filter(down);
     best = std::min(best, seconds_since(start));
+    best_cpu = std::min(best_cpu, cpu_seconds() - cpu_start);
     out_points = down.size();
   }
-  std::printf("{\"peer\": \"pcl %s\", \"points\": %zu, \"output_points\": %zu, \"seconds\": %.9f}\n",
-              PCL_VERSION_PRETTY, cloud->size(), out_points, best);
+  std::printf("{\"peer\": \"pcl %s\", \"points\": %zu, \"output_points\": %zu, \"seconds\": %.9f, "
+              "\"cpu_seconds\": %.9f}\n",
+              PCL_VERSION_PRETTY, cloud->size(), out_points, best, best_cpu);
   return 0;
 }
 
@@ -52,7 +60,9 @@ int features(const char* path, float normal_radius, int normal_max_nn, float fpf
   pcl::PointCloud<pcl::PointXYZ>::Ptr cloud(new pcl::PointCloud<pcl::PointXYZ>);
   locard_pcl::read_ply(path, *cloud);
   double best = std::numeric_limits<double>::infinity();
+  double best_cpu = std::numeric_limits<double>::infinity();
   for (int r = 0; r < repeats; ++r) {
+    const double cpu_start = cpu_seconds();
     const auto start = std::chrono::steady_clock::now();
     pcl::search::KdTree<pcl::PointXYZ>::Ptr tree(new pcl::search::KdTree<pcl::PointXYZ>);
     pcl::PointCloud<pcl::Normal>::Ptr normals(new pcl::PointCloud<pcl::Normal>);
@@ -70,10 +80,11 @@ int features(const char* path, float normal_radius, int normal_max_nn, float fpf
     fpfh.setRadiusSearch(fpfh_radius);
     fpfh.compute(descriptors);
     best = std::min(best, seconds_since(start));
+    best_cpu = std::min(best_cpu, cpu_seconds() - cpu_start);
   }
   (void)normal_max_nn;  // PCL's radius search has no neighbour cap
-  std::printf("{\"peer\": \"pcl %s\", \"points\": %zu, \"seconds\": %.9f}\n", PCL_VERSION_PRETTY,
-              cloud->size(), best);
+  std::printf("{\"peer\": \"pcl %s\", \"points\": %zu, \"seconds\": %.9f, \"cpu_seconds\": %.9f}\n",
+              PCL_VERSION_PRETTY, cloud->size(), best, best_cpu);
   return 0;
 }
 

@@ -206,14 +206,30 @@ std::uint8_t mean_channel(std::uint64_t sum, std::uint32_t count) {
   return static_cast<std::uint8_t>(std::lround(static_cast<double>(sum) / count));
 }
 
+// Voxel ids in increasing key order. 32-bit keys are sorted packed with their id in one 64-bit
+// integer (direct comparisons, no indirection); wider keys as (key, id) pairs.
+template <typename Key>
+std::vector<std::uint32_t> key_order(const std::vector<Key>& keys) {
+  std::vector<std::uint32_t> order(keys.size());
+  if constexpr (sizeof(Key) <= 4) {
+    std::vector<std::uint64_t> packed(keys.size());
+    for (std::size_t v = 0; v < keys.size(); ++v) packed[v] = (std::uint64_t{keys[v]} << 32) | v;
+    std::sort(packed.begin(), packed.end());
+    for (std::size_t k = 0; k < packed.size(); ++k) order[k] = static_cast<std::uint32_t>(packed[k]);
+  } else {
+    std::vector<std::pair<Key, std::uint32_t>> pairs(keys.size());
+    for (std::size_t v = 0; v < keys.size(); ++v) pairs[v] = {keys[v], static_cast<std::uint32_t>(v)};
+    std::sort(pairs.begin(), pairs.end());
+    for (std::size_t k = 0; k < pairs.size(); ++k) order[k] = pairs[k].second;
+  }
+  return order;
+}
+
 // Writes the means of one range, in key order, from output index `base` on.
 template <typename Key>
 void write_range(const PointCloud& cloud, const RangeSums<Key>& sums, std::size_t base,
                  VoxelGridResult& result) {
-  std::vector<std::uint32_t> order(sums.key.size());
-  for (std::size_t v = 0; v < order.size(); ++v) order[v] = static_cast<std::uint32_t>(v);
-  std::sort(order.begin(), order.end(),
-            [&](std::uint32_t a, std::uint32_t b) { return sums.key[a] < sums.key[b]; });
+  const std::vector<std::uint32_t> order = key_order(sums.key);
   PointCloud& out = result.cloud;
   const std::size_t fields = cloud.scalars.size();
   for (std::size_t k = 0; k < order.size(); ++k) {
