@@ -10,6 +10,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <bit>
 #include <cmath>
 #include <limits>
@@ -212,9 +213,21 @@ template <typename Key>
 std::vector<std::uint32_t> key_order(const std::vector<Key>& keys) {
   std::vector<std::uint32_t> order(keys.size());
   if constexpr (sizeof(Key) <= 4) {
-    std::vector<std::uint64_t> packed(keys.size());
-    for (std::size_t v = 0; v < keys.size(); ++v) packed[v] = (std::uint64_t{keys[v]} << 32) | v;
-    std::sort(packed.begin(), packed.end());
+    // LSD radix sort on the key half, 11 bits a pass (keys are unique, so order is total).
+    std::vector<std::uint64_t> packed(keys.size()), scratch(keys.size());
+    Key max_key = 0;
+    for (std::size_t v = 0; v < keys.size(); ++v) {
+      packed[v] = (std::uint64_t{keys[v]} << 32) | v;
+      max_key = std::max(max_key, keys[v]);
+    }
+    const int bits = std::bit_width(static_cast<std::uint32_t>(max_key));
+    for (int shift = 0; shift < bits; shift += 11) {
+      std::array<std::size_t, 2049> count{};
+      for (std::uint64_t item : packed) ++count[((item >> (32 + shift)) & 2047) + 1];
+      for (std::size_t d = 0; d < 2048; ++d) count[d + 1] += count[d];
+      for (std::uint64_t item : packed) scratch[count[(item >> (32 + shift)) & 2047]++] = item;
+      packed.swap(scratch);
+    }
     for (std::size_t k = 0; k < packed.size(); ++k) order[k] = static_cast<std::uint32_t>(packed[k]);
   } else {
     std::vector<std::pair<Key, std::uint32_t>> pairs(keys.size());
@@ -232,7 +245,9 @@ void write_range(const PointCloud& cloud, const RangeSums<Key>& sums, std::size_
   const std::vector<std::uint32_t> order = key_order(sums.key);
   PointCloud& out = result.cloud;
   const std::size_t fields = cloud.scalars.size();
+  constexpr std::size_t kAhead = 8;  // key order is a random walk through the sums: prefetch
   for (std::size_t k = 0; k < order.size(); ++k) {
+    if (k + kAhead < order.size()) __builtin_prefetch(&sums.sum[order[k + kAhead]]);
     const std::uint32_t id = order[k];
     const std::size_t v = base + k;
     const VoxelSum& sum = sums.sum[id];
