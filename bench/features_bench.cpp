@@ -101,7 +101,7 @@ void BM_NormalsAndFpfh(benchmark::State& state) {
   }
   state.counters["points"] = static_cast<double>(in.cloud.size());
 }
-BENCHMARK(BM_NormalsAndFpfh)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(1.0);
+BENCHMARK(BM_NormalsAndFpfh)->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(5.0);
 
 void BM_IssKeypoints(benchmark::State& state) {
   const Input& in = input();
