@@ -80,6 +80,8 @@ struct Pair {
   Isometry3d T_target_source_truth;
   fs::path source_file, target_file;
   std::vector<locard::Fpfh> source_features, target_features;  // RANSAC only
+  std::vector<locard::Correspondence> matches;                  // mutual FPFH matches
+  fs::path matches_file;
 };
 
 // --- data -----------------------------------------------------------------------------------
@@ -114,6 +116,10 @@ std::vector<Pair> make_bunny_pairs() {
     f.max_neighbors = kFpfhMaxNeighbors;
     p.source_features = locard::compute_fpfh(p.source, f);
     p.target_features = locard::compute_fpfh(p.target, f);
+    p.matches = locard::match_descriptors(p.source_features, p.target_features);
+    p.matches_file = kWork / (s + "-" + t + ".matches.txt");
+    std::ofstream m(p.matches_file);
+    for (const auto& c : p.matches) m << c.source << ' ' << c.target << '\n';
     pairs.push_back(std::move(p));
   }
   for (const auto& [name, scan] : scans) locard::write_ply(kWork / (name + ".ply"), scan.first);
@@ -239,6 +245,32 @@ void BM_RansacBunnyPairs(benchmark::State& state) {
 }
 BENCHMARK(BM_RansacBunnyPairs)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
+// RANSAC alone on the same correspondences (Locard's mutual FPFH matches, also handed to
+// Open3D's registration_ransac_based_on_correspondence).
+RansacRun g_ransac_only;
+
+void BM_RansacOnlyBunnyPairs(benchmark::State& state) {
+  const auto& pairs = bunny_pairs();
+  locard::RansacOptions o;
+  o.max_correspondence_distance = kRansacDistance;
+  for (auto _ : state) {
+    RansacRun run;
+    run.seconds = 0.0;
+    for (const Pair& p : pairs) {
+      for (int seed = 0; seed < kSeeds; ++seed) {
+        o.seed = static_cast<std::uint64_t>(seed);
+        const auto start = std::chrono::steady_clock::now();
+        const locard::RansacResult r = locard::ransac_registration(p.source, p.target, p.matches, o);
+        run.seconds += seconds_since(start);
+        run.transforms.push_back(r.T_target_source);
+        run.hypotheses += r.hypotheses;
+      }
+    }
+    if (run.seconds < g_ransac_only.seconds) g_ransac_only = std::move(run);
+  }
+}
+BENCHMARK(BM_RansacOnlyBunnyPairs)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
+
 struct IcpRun {
   double seconds = std::numeric_limits<double>::infinity();
   std::vector<Isometry3d> transforms;
@@ -307,7 +339,8 @@ void report_ransac(const fs::path& script, const fs::path& pcl) {
   };
   const auto [ok, runs] = success_rate(g_ransac.transforms);
   fmt::print("\nRANSAC global registration, bunny ring pairs: {} pairs x {} seeds, 5 mm voxels "
-             "({}..{} points), success = within {} deg and {} cm of bun.conf\n",
+             "({}..{} points), success = within {} deg and {} cm of bun.conf\n"
+             "matching (mutual FPFH nearest neighbours) + RANSAC:\n",
              pairs.size(), kSeeds, pairs[0].source.size(), pairs[3].source.size(), kSuccessDeg,
              kSuccessM * 100);
   fmt::print("  locard : {:9.1f} ms  success {}/{}  ({:.0f} hypotheses per run on average)\n",
@@ -331,12 +364,40 @@ void report_ransac(const fs::path& script, const fs::path& pcl) {
                      locard::bench::quoted(list), kFpfhRadius, kFpfhMaxNeighbors,
                      kRansacDistance, kSeeds)));
   if (fs::exists(pcl))
-    show("pcl", run_peer(fmt::format("{} ransac {} {} {} {}",
-                                                    locard::bench::quoted(pcl),
-                                                    locard::bench::quoted(list), kFpfhRadius,
-                                                    kRansacDistance, kSeeds)));
+    show("pcl", run_peer(fmt::format("{} ransac {} {} {} {}", locard::bench::quoted(pcl),
+                                     locard::bench::quoted(list), kFpfhRadius, kRansacDistance,
+                                     kSeeds)));
   else
     fmt::print("  pcl    : not measured ({} not built)\n", pcl.string());
+  // RANSAC alone, identical correspondences.
+  const auto [ook, oruns] = success_rate(g_ransac_only.transforms);
+  fmt::print("RANSAC alone on identical correspondences (Locard's mutual matches, {}..{} per "
+             "pair):\n", pairs[2].matches.size(), pairs[0].matches.size());
+  fmt::print("  locard : {:9.1f} ms  success {}/{}  ({:.0f} hypotheses per run on average)\n",
+             1e3 * g_ransac_only.seconds, ook, oruns,
+             static_cast<double>(g_ransac_only.hypotheses) / oruns);
+  const fs::path corr_list = kWork / "bunny_pairs_matches.txt";
+  {
+    std::ofstream out(corr_list);
+    for (const Pair& p : pairs)
+      out << p.source_file.string() << ' ' << p.target_file.string() << ' '
+          << p.matches_file.string() << '\n';
+  }
+  const nlohmann::json only = run_peer(fmt::format("/usr/bin/python3 {} ransac_corr {} {} {}",
+                                                   locard::bench::quoted(script),
+                                                   locard::bench::quoted(corr_list),
+                                                   kRansacDistance, kSeeds));
+  if (only.is_discarded()) {
+    fmt::print("  open3d : not measured\n");
+  } else {
+    std::vector<Isometry3d> transforms;
+    for (const auto& r : only["runs"]) transforms.push_back(from_row_major(r["T"]));
+    const auto [pok, pruns] = success_rate(transforms);
+    const double seconds = only["seconds"].get<double>();
+    fmt::print("  open3d : {:9.1f} ms  success {}/{}  -> locard is {:.2f}x faster ({})\n",
+               1e3 * seconds, pok, pruns, seconds / g_ransac_only.seconds,
+               only["peer"].get<std::string>());
+  }
 }
 
 void report_icp(const fs::path& script, const fs::path& pcl) {
@@ -394,10 +455,9 @@ void report_icp(const fs::path& script, const fs::path& pcl) {
                      locard::bench::quoted(list), kIcpDistance, kIcpMaxIterations,
                      kPeerRepeats)));
   if (fs::exists(pcl))
-    show("pcl", run_peer(fmt::format("{} icp {} {} {} {}",
-                                                    locard::bench::quoted(pcl),
-                                                    locard::bench::quoted(list), kIcpDistance,
-                                                    kIcpMaxIterations, kPeerRepeats)));
+    show("pcl", run_peer(fmt::format("{} icp {} {} {} {}", locard::bench::quoted(pcl),
+                                     locard::bench::quoted(list), kIcpDistance,
+                                     kIcpMaxIterations, kPeerRepeats)));
   else
     fmt::print("  pcl    : not measured ({} not built)\n", pcl.string());
 }

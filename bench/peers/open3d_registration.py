@@ -14,6 +14,11 @@ Run with Debian's interpreter (/usr/bin/python3), which has python3-open3d.
       registration_ransac_based_on_feature_matching (mutual filter, point-to-point Kabsch,
       ransac_n 3, edge-length 0.9 and distance checkers, RANSACConvergenceCriteria(100000,
       0.999)), timed (descriptor matching included, as Locard's side).
+  open3d_registration.py ransac_corr PAIRS MAX_DISTANCE SEEDS
+      PAIRS lines are "SOURCE.ply TARGET.ply MATCHES.txt", MATCHES holding one "s t" index pair
+      per line (the correspondences Locard's RANSAC gets). For every seed:
+      registration_ransac_based_on_correspondence with the same estimation, checkers and
+      criteria as above, timed: RANSAC alone, on identical input.
 Prints one JSON object with the transforms (row-major 4x4), fitness and RMSE per run.
 """
 import json
@@ -88,6 +93,30 @@ def ransac(pairs_path, fpfh_radius, fpfh_max_nn, max_distance, seeds):
     print(json.dumps({"peer": "open3d " + o3d.__version__, "seconds": total, "runs": runs}))
 
 
+def ransac_corr(pairs_path, max_distance, seeds):
+    checkers = [reg.CorrespondenceCheckerBasedOnEdgeLength(0.9),
+                reg.CorrespondenceCheckerBasedOnDistance(max_distance)]
+    criteria = reg.RANSACConvergenceCriteria(100000, 0.999)
+    total = 0.0
+    runs = []
+    with open(pairs_path) as f:
+        lines = [line.split() for line in f if line.strip()]
+    for source_path, target_path, matches_path in lines:
+        source, target = load(source_path), load(target_path)
+        matches = np.loadtxt(matches_path, dtype=np.int32, ndmin=2)
+        corres = o3d.utility.Vector2iVector(matches)
+        for seed in range(seeds):
+            o3d.utility.random.seed(seed)
+            start = time.perf_counter()
+            result = reg.registration_ransac_based_on_correspondence(
+                source, target, corres, max_distance,
+                reg.TransformationEstimationPointToPoint(False), 3, checkers, criteria)
+            total += time.perf_counter() - start
+            runs.append({"T": np.asarray(result.transformation).reshape(-1).tolist(),
+                         "fitness": result.fitness, "rmse": result.inlier_rmse})
+    print(json.dumps({"peer": "open3d " + o3d.__version__, "seconds": total, "runs": runs}))
+
+
 def main():
     mode = sys.argv[1]
     if mode == "icp":
@@ -95,6 +124,8 @@ def main():
     elif mode == "ransac":
         ransac(sys.argv[2], float(sys.argv[3]), int(sys.argv[4]), float(sys.argv[5]),
                int(sys.argv[6]))
+    elif mode == "ransac_corr":
+        ransac_corr(sys.argv[2], float(sys.argv[3]), int(sys.argv[4]))
     else:
         sys.exit(f"unknown mode {mode}")
 

@@ -37,7 +37,7 @@ struct Frames {
   std::vector<Isometry3d> T_world_camera;
 };
 
-// Every 4th pixel in u and v, then a 2 cm voxel grid: ~10k points per frame, enough for a
+// Every 5th pixel in u and v, then a 2 cm voxel grid: ~7k points per frame, enough for a
 // centimetre check and fast under ASan. Normals by local PCA within 5 cm, towards the camera.
 const Frames& frames() {
   static const Frames f = [] {
@@ -45,7 +45,7 @@ const Frames& frames() {
         open_rgbd_sequence(test::shared_data() / "7scenes-tsdf-fusion" / "data");
     Frames out;
     DepthToPointsOptions d;
-    d.stride = 4;
+    d.stride = 5;
     d.with_color = false;
     for (std::size_t i = 0; i < 60; ++i) {
       EXPECT_EQ(seq.frames[i].frame_index, static_cast<std::int64_t>(i));
@@ -68,10 +68,14 @@ TEST(SevenScenesIcp, ConsecutiveFramePairsWithinOneCentimetreAndOneDegree) {
   o.method = IcpMethod::PointToPlane;
   o.max_correspondence_distance = 0.05;
   double worst_deg = 0, worst_m = 0, sum_m = 0, sum_identity_m = 0;
+  int runs = 0;
   for (std::size_t i = 0; i + 1 < f.clouds.size(); ++i) {
     // Frame i + 1 registered onto frame i.
     const Isometry3d truth = f.T_world_camera[i].inverse() * f.T_world_camera[i + 1];
+    // Forward for every pair; inverse (frame i onto i + 1) for every fourth, to keep the test
+    // short under ASan.
     for (const bool inverse : {false, true}) {
+      if (inverse && i % 4 != 0) continue;
       const Isometry3d expected = inverse ? truth.inverse() : truth;
       const IcpResult r = inverse ? icp(f.clouds[i], f.clouds[i + 1], Isometry3d::Identity(), o)
                                   : icp(f.clouds[i + 1], f.clouds[i], Isometry3d::Identity(), o);
@@ -85,13 +89,14 @@ TEST(SevenScenesIcp, ConsecutiveFramePairsWithinOneCentimetreAndOneDegree) {
       worst_m = std::max(worst_m, m);
       sum_m += m;
       sum_identity_m += translation_difference_m(expected, Isometry3d::Identity());
+      ++runs;
     }
   }
   // ICP must do the work: the frames move up to 1.4 cm, so the identity alone fails the bound.
   EXPECT_LT(sum_m, 0.5 * sum_identity_m);
   std::printf("7-Scenes pairs 0..59, point-to-plane: worst %.3f deg, %.2f mm; mean %.2f mm "
               "(identity: mean %.2f mm)\n",
-              worst_deg, 1e3 * worst_m, 1e3 * sum_m / 118, 1e3 * sum_identity_m / 118);
+              worst_deg, 1e3 * worst_m, 1e3 * sum_m / runs, 1e3 * sum_identity_m / runs);
 }
 
 }  // namespace
