@@ -28,7 +28,8 @@ double seconds_since(Clock::time_point t) {
 }
 
 struct PreparedFrame {
-  PointCloud cloud;  // camera frame, voxel grid, normals towards the sensor, colours
+  PointCloud cloud;   // camera frame, voxel grid, normals towards the sensor, colours
+  PointCloud coarse;  // the same at twice the voxel size (first ICP level)
   std::string unusable;  // non-empty: why this frame cannot be used
 };
 
@@ -58,6 +59,7 @@ PreparedFrame prepare_frame(const RgbdSequence& sequence, std::size_t index,
   nopt.radius = static_cast<float>(2.5 * o.voxel_size);
   nopt.max_neighbors = 30;
   estimate_normals(f.cloud, nopt);
+  f.coarse = voxel_down_sample(f.cloud, static_cast<float>(2.0 * o.voxel_size)).cloud;
   return f;
 }
 
@@ -70,19 +72,64 @@ PointCloud transformed(const PointCloud& cloud, const Isometry3d& T) {
   return out;
 }
 
-// ICP of `source` (camera frame) against `target`, coarse to fine (header, step 2).
-IcpResult refine(const PointCloud& source, const PointCloud& target, const Isometry3d& init,
-                 const AlignmentOptions& o, IcpMethod method) {
+// A registration target at two resolutions (the coarse one is made once per model update).
+struct Target {
+  PointCloud fine;
+  PointCloud coarse;
+};
+
+Target make_target(PointCloud fine, double voxel_size) {
+  Target t;
+  t.coarse = voxel_down_sample(fine, static_cast<float>(2.0 * voxel_size)).cloud;
+  t.fine = std::move(fine);
+  return t;
+}
+
+// ICP of a frame (camera frame) against a target, coarse to fine (header, step 2): point to
+// plane at 2v with a 4v gate, then at v with gates 2v and v; the last level uses `method`
+// (coloured in odometry mode), so the colour gradients are fitted once per frame.
+IcpResult refine(const PointCloud& source_fine, const PointCloud& source_coarse,
+                 const Target& target, const Isometry3d& init, const AlignmentOptions& o,
+                 IcpMethod method) {
   const double v = o.voxel_size;
-  IcpOptions icp_options;
-  icp_options.method = method;
-  icp_options.min_fitness = 0.0;  // acceptance is decided by the caller
-  icp_options.normal_radius = 2.5 * v;
-  icp_options.convergence.max_iterations = 30;
-  const std::vector<IcpScale> scales{{2.0 * v, 4.0 * v, 30}, {0.0, 2.0 * v, 20}, {0.0, v, 15}};
-  if (method == IcpMethod::Colored && (!source.has_colors() || !target.has_colors()))
-    icp_options.method = IcpMethod::PointToPlane;
-  return icp_multiscale(source, target, init, icp_options, scales);
+  IcpOptions options;
+  options.method = IcpMethod::PointToPlane;
+  options.min_fitness = 0.0;  // acceptance is decided by the caller
+  options.normal_radius = 2.5 * v;
+  struct Level {
+    const PointCloud* source;
+    const PointCloud* target;
+    double gate;
+    int iterations;
+  };
+  const Level levels[3] = {{&source_coarse, &target.coarse, 4.0 * v, 30},
+                           {&source_fine, &target.fine, 2.0 * v, 20},
+                           {&source_fine, &target.fine, v, 15}};
+  Isometry3d T = init;
+  IcpResult r;
+  int iterations = 0;
+  for (int level = 0; level < 3; ++level) {
+    options.max_correspondence_distance = levels[level].gate;
+    options.convergence.max_iterations = levels[level].iterations;
+    if (level == 2 && method == IcpMethod::Colored && source_fine.has_colors() &&
+        target.fine.has_colors())
+      options.method = IcpMethod::Colored;
+    if (levels[level].source->size() < options.min_points ||
+        levels[level].target->size() < options.min_points) {
+      r.success = false;
+      r.reason = fmt::format("level {}: too few points", level + 1);
+      return r;
+    }
+    r = icp(*levels[level].source, *levels[level].target, T, options);
+    iterations += r.iterations;
+    if (!r.success) {
+      r.reason = fmt::format("level {} of 3: {}", level + 1, r.reason);
+      break;
+    }
+    T = r.T_target_source;
+  }
+  r.iterations = iterations;
+  return r;
 }
 
 bool acceptable(const IcpResult& r, const AlignmentOptions& o, double min_fitness) {
@@ -228,7 +275,7 @@ AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOpti
   t0 = Clock::now();
   const IcpMethod method =
       o.mode == AlignmentMode::Odometry ? IcpMethod::Colored : IcpMethod::PointToPlane;
-  PointCloud model;                          // world frame
+  Target model;                              // world frame
   std::vector<std::size_t> keyframes_local;  // odometry: frames in the local model
   std::vector<std::size_t> piece_of(n, 0);
   std::vector<std::size_t> registered;       // frame indices (into result.frames), in order
@@ -240,13 +287,15 @@ AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOpti
     PointCloud m;
     for (std::size_t k : keyframes_local)
       m.append(transformed(prepared[k].cloud, *result.frames[k].T_world_camera_icp));
-    model = voxel_down_sample(m, static_cast<float>(o.voxel_size)).cloud;
+    model = make_target(voxel_down_sample(m, static_cast<float>(o.voxel_size)).cloud,
+                        o.voxel_size);
   };
   const auto add_to_model = [&](std::size_t i) {
     const PointCloud world = transformed(prepared[i].cloud, *result.frames[i].T_world_camera_icp);
     if (o.mode == AlignmentMode::Cumulative) {
-      model.append(world);
-      model = voxel_down_sample(model, static_cast<float>(o.voxel_size)).cloud;
+      model.fine.append(world);
+      model = make_target(
+          voxel_down_sample(model.fine, static_cast<float>(o.voxel_size)).cloud, o.voxel_size);
     } else {
       keyframes_local.push_back(i);
       if (keyframes_local.size() > o.local_model_frames)
@@ -270,7 +319,7 @@ AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOpti
       f.fitness = 1.0;
       piece_of[i] = piece;
       registered.push_back(i);
-      model.clear();
+      model = Target{};
       keyframes_local.clear();
       add_to_model(i);
       continue;
@@ -280,7 +329,7 @@ AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOpti
     const Isometry3d T_last = *result.frames[last].T_world_camera_icp;
     std::vector<std::pair<Isometry3d, std::string>> inits;
     const auto try_features = [&] {
-      const auto g = features(cloud, model, T_last.translation().cast<float>(), o, i);
+      const auto g = features(cloud, model.fine, T_last.translation().cast<float>(), o, i);
       if (g.ransac.success) {
         f.T_world_camera_svd = g.ransac.T_target_source;
         inits.emplace_back(g.ransac.T_target_source, "features");
@@ -303,11 +352,13 @@ AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOpti
     std::string best_init;
     const auto evaluate = [&](std::size_t from) {
       for (std::size_t k = from; k < inits.size(); ++k) {
-        IcpResult r = refine(cloud, model, inits[k].first, o, method);
+        IcpResult r = refine(cloud, prepared[i].coarse, model, inits[k].first, o, method);
         if (!best || better(r, *best)) {
           best = std::move(r);
           best_init = inits[k].second;
         }
+        // Odometry: the prediction is good enough almost always; skip the other guesses.
+        if (o.mode == AlignmentMode::Odometry && acceptable(*best, o, o.min_fitness)) break;
       }
     };
     evaluate(0);
@@ -409,14 +460,16 @@ AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOpti
     tbb::parallel_for(std::size_t{0}, candidates.size(), [&](std::size_t k) {
       LoopCandidate& c = candidates[k];
       const PointCloud& src = prepared[c.source].cloud;
-      const PointCloud& tgt = prepared[c.target].cloud;
+      const PointCloud& src_coarse = prepared[c.source].coarse;
+      const Target tgt{prepared[c.target].cloud, prepared[c.target].coarse};
       std::optional<IcpResult> best;
-      if (c.found_by == "proximity") best = refine(src, tgt, c.T_target_source, o, method);
-      if (!best || !acceptable(*best, o, o.loop_min_fitness)) {
+      if (c.found_by == "proximity")
+        best = refine(src, src_coarse, tgt, c.T_target_source, o, method);
+      if (c.found_by == "features") {
         const auto g =
-            features(src, tgt, Eigen::Vector3f::Zero(), o, 1000003 * c.source + c.target);
+            features(src, tgt.fine, Eigen::Vector3f::Zero(), o, 1000003 * c.source + c.target);
         if (g.ransac.success) {
-          IcpResult r = refine(src, tgt, g.ransac.T_target_source, o, method);
+          IcpResult r = refine(src, src_coarse, tgt, g.ransac.T_target_source, o, method);
           if (!best || better(r, *best)) best = std::move(r);
         } else if (!best) {
           c.reason = "feature registration failed: " + g.ransac.reason;

@@ -24,7 +24,8 @@
 //  3. Loop closure between keyframes (every frame in cumulative mode, every keyframe_interval
 //     registered frames in odometry mode): candidates are pairs far apart in the sequence
 //     whose cameras are within loop_max_distance_m and loop_max_angle_deg (pose proximity),
-//     plus, by feature registration, the first and last keyframes of every piece (the
+//     (verified by ICP from the current relative pose), plus, by feature registration
+//     (FPFH + RANSAC, then ICP), the first and last keyframes of every piece (the
 //     first/last overlap of a turn, found even after large drift). Each candidate is verified
 //     by ICP: fitness >= loop_min_fitness and inlier RMSE <= max_inlier_rmse_ratio *
 //     voxel_size; a verified candidate becomes an uncertain pose-graph edge.
@@ -75,7 +76,7 @@ struct AlignmentOptions {
   double loop_max_distance_m = 1.0;
   double loop_max_angle_deg = 20.0;
   double loop_min_fitness = 0.3;
-  std::size_t max_loop_candidates = 200;  // nearest first
+  std::size_t max_loop_candidates = 60;  // nearest first
   PoseGraphOptions pose_graph;
   std::uint64_t seed = 0;
   ProgressCallback progress;  // (frames done, frames total) over stage 2

@@ -1,0 +1,161 @@
+// Whole-sequence alignment on reduced inputs: a simulated bedroom turn with exact ground truth
+// (fewer views than the 50-view demo, whose numbers are in docs/benchmarks.md), a blank frame
+// that must be reported and left out, and the first 7-Scenes frames.
+#include <locard/alignment/sequential_alignment.hpp>
+#include <locard/alignment/stage_report.hpp>
+#include <locard/alignment/trajectory_eval.hpp>
+
+#include <locard/core/error.hpp>
+#include <locard/io/image_io.hpp>
+#include <locard/io/rgbd_sequence.hpp>
+#include <locard/sim/scan_writer.hpp>
+#include <locard/sim/scene.hpp>
+
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+
+namespace locard {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kTestViews = 30;  // 12 degrees of yaw between views
+
+// The bedroom turn with kTestViews views, written once per test binary.
+const fs::path& bedroom() {
+  static const fs::path folder = [] {
+    // Shared by the tests of this binary (scratch folders are per test).
+    const fs::path f = fs::temp_directory_path() / "locard-alignment-test-bedroom-30";
+    fs::remove_all(f);
+    sim::Scene scene = sim::builtin_scene("bedroom");
+    scene.scanner.views = kTestViews;
+    sim::write_simulated_scan(scene, f);
+    return f;
+  }();
+  return folder;
+}
+
+double ate(const RgbdSequence& seq, const AlignmentResult& r) {
+  AssociationOptions a;
+  a.match_by_frame_index = true;
+  return absolute_trajectory_error(seq.ground_truth, r.trajectory(0), a).translation.rmse;
+}
+
+TEST(SequentialAlignment, BedroomTurnCumulativeStagesAndLoopClosure) {
+  const RgbdSequence seq = open_rgbd_sequence(bedroom());
+  ASSERT_EQ(seq.frames.size(), static_cast<std::size_t>(kTestViews));
+  AlignmentOptions o;
+  o.mode = AlignmentMode::Cumulative;
+  const AlignmentResult r = align_sequence(seq, o);
+  EXPECT_EQ(r.pieces, 1u);
+  EXPECT_TRUE(r.unregistered_frame_indices().empty());
+  ASSERT_EQ(r.trajectory().size(), seq.frames.size());
+  // The first/last overlap of the turn is closed by a verified, kept loop edge.
+  bool closed = false;
+  for (const LoopCandidate& c : r.loops)
+    closed |= c.accepted && c.target == 0 && c.source == seq.frames.size() - 1;
+  EXPECT_TRUE(closed);
+  EXPECT_TRUE(r.pose_graph.success) << r.pose_graph.reason;
+
+  const StageReport report = make_stage_report(r, seq);
+  ASSERT_TRUE(report.has_ground_truth);
+  const StageSummary& svd = report.summary[0];
+  const StageSummary& icp = report.summary[1];
+  const StageSummary& lc = report.summary[2];
+  ASSERT_TRUE(svd.ate_rmse_m && icp.ate_rmse_m && lc.ate_rmse_m);
+  EXPECT_GT(svd.mean_translation_m, icp.mean_translation_m);
+  EXPECT_GT(icp.mean_translation_m, lc.mean_translation_m);
+  EXPECT_LE(*lc.ate_rmse_m, 0.005);
+  EXPECT_NEAR(ate(seq, r), *lc.ate_rmse_m, 1e-12);
+  for (const StageViewError& v : report.views) {
+    ASSERT_TRUE(v.rotation_deg[2]);
+    EXPECT_LT(*v.rotation_deg[2], 0.5) << "frame " << v.frame_index;
+  }
+
+  // Same input, same options: the same poses bit for bit.
+  const AlignmentResult again = align_sequence(seq, o);
+  const Trajectory a = r.trajectory(), b = again.trajectory();
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t i = 0; i < a.size(); ++i)
+    EXPECT_EQ(a[i].T_world_camera.matrix(), b[i].T_world_camera.matrix()) << i;
+
+  // Report files: JSON and an SVG with one line per stage.
+  const fs::path out = test::scratch_dir();
+  write_stage_report_json(out / "stage.json", r, report);
+  write_stage_report_svg(out / "stage.svg", r, report);
+  std::ifstream svg(out / "stage.svg");
+  const std::string text((std::istreambuf_iterator<char>(svg)), {});
+  EXPECT_NE(text.find("<svg"), std::string::npos);
+  EXPECT_NE(text.find("after loop closure"), std::string::npos);
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n') > 10, true);
+}
+
+// A frame whose depth is all zero (covered lens) is reported by index and left out; the frames
+// around it are still aligned.
+TEST(SequentialAlignment, BlankFrameIsReportedNotGuessed) {
+  const fs::path copy = test::scratch_dir() / "blank";
+  fs::copy(bedroom(), copy, fs::copy_options::recursive);
+  const RgbdSequence original = open_rgbd_sequence(copy);
+  const std::size_t blank = 7;
+  DepthImage zero = original.load_depth(blank);
+  std::fill(zero.data().begin(), zero.data().end(), std::uint16_t{0});
+  write_png(original.frames[blank].depth_path, zero);
+  const RgbdSequence seq = open_rgbd_sequence(copy);
+  AlignmentOptions o;
+  o.max_frames = 12;
+  o.loop_closure = false;
+  const AlignmentResult r = align_sequence(seq, o);
+  ASSERT_EQ(r.frames.size(), 12u);
+  EXPECT_EQ(r.frames[blank].status, FrameStatus::Unusable);
+  EXPECT_NE(r.frames[blank].reason.find("depth"), std::string::npos) << r.frames[blank].reason;
+  EXPECT_FALSE(r.frames[blank].T_world_camera_final.has_value());
+  // Frames just after the gap may fail too (24 degrees to the last registered view); each is
+  // reported with its reason, none is given a guessed pose.
+  const auto missing = r.unregistered_frame_indices();
+  EXPECT_NE(std::find(missing.begin(), missing.end(), seq.frames[blank].frame_index),
+            missing.end());
+  for (const FrameAlignment& f : r.frames)
+    if (f.status != FrameStatus::Registered) {
+      EXPECT_FALSE(f.reason.empty()) << f.frame_index;
+      EXPECT_FALSE(f.T_world_camera_final.has_value()) << f.frame_index;
+    }
+  const Trajectory t = r.trajectory();
+  EXPECT_EQ(t.size() + missing.size(), 12u);
+  for (const StampedPose& p : t) EXPECT_NE(p.frame_index, seq.frames[blank].frame_index);
+}
+
+TEST(SequentialAlignment, OptionsAndEmptyInputAreChecked) {
+  RgbdSequence empty;
+  empty.root = "/nowhere";
+  EXPECT_THROW(align_sequence(empty, {}), InputError);
+  const RgbdSequence seq = open_rgbd_sequence(bedroom());
+  AlignmentOptions o;
+  o.voxel_size = 0.0;
+  EXPECT_THROW(align_sequence(seq, o), InputError);
+  o = {};
+  o.first_frame = 1000;
+  EXPECT_THROW(align_sequence(seq, o), InputError);
+  EXPECT_EQ(parse_alignment_mode("odometry"), AlignmentMode::Odometry);
+  EXPECT_FALSE(parse_alignment_mode("slam").has_value());
+}
+
+// Real handheld data: the first 7-Scenes frames (30 Hz) in odometry mode.
+TEST(SequentialAlignment, SevenScenesFirstFramesOdometry) {
+  const fs::path data = test::shared_data() / "7scenes-tsdf-fusion" / "data";
+  if (!fs::exists(data)) GTEST_SKIP() << data << " is missing";
+  const RgbdSequence seq = open_rgbd_sequence(data);
+  AlignmentOptions o;
+  o.mode = AlignmentMode::Odometry;
+  o.max_frames = 60;
+  const AlignmentResult r = align_sequence(seq, o);
+  EXPECT_TRUE(r.unregistered_frame_indices().empty());
+  EXPECT_EQ(r.pieces, 1u);
+  EXPECT_LT(ate(seq, r), 0.02);
+}
+
+}  // namespace
+}  // namespace locard
