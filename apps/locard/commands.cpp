@@ -19,6 +19,8 @@ void register_all(CLI::App& app, GlobalOptions& global) {
   register_convert(app, global);
   register_register(app, global);
   register_scan_sim(app, global);
+  register_mesh(app, global);
+  register_eval_mesh(app, global);
   register_align(app, global);
   register_eval_trajectory(app, global);
 }

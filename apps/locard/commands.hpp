@@ -25,6 +25,8 @@ void register_info(CLI::App& app, GlobalOptions& global);
 void register_convert(CLI::App& app, GlobalOptions& global);
 void register_register(CLI::App& app, GlobalOptions& global);
 void register_scan_sim(CLI::App& app, GlobalOptions& global);
+void register_mesh(CLI::App&, GlobalOptions&);
+void register_eval_mesh(CLI::App&, GlobalOptions&);
 void register_align(CLI::App& app, GlobalOptions& global);
 void register_eval_trajectory(CLI::App&, GlobalOptions&);
 

@@ -187,7 +187,8 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
   tbb::combinable<std::vector<std::uint64_t>> touched;
   tbb::parallel_for(tbb::blocked_range<int>(0, height, 8), [&](const tbb::blocked_range<int>& rr) {
     std::vector<std::uint64_t>& out = touched.local();
-    Eigen::Vector3i last_lo(1 << 30, 0, 0), last_hi(0, 0, 0);
+    std::array<std::uint64_t, 4> last_key;
+    last_key.fill(~std::uint64_t{0});
     for (int v = rr.begin(); v != rr.end(); ++v) {
       const std::uint16_t* row = depth.row(v);
       float* drow = depth_m.data() + static_cast<std::size_t>(v) * width;
@@ -196,25 +197,24 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
         const bool ok = row[u] != 0 && d >= min_d && d <= max_d;
         drow[u] = ok ? d : 0.f;
         if (!ok) continue;
-        const Eigen::Vector3f p = R_wc * Eigen::Vector3f(x_slope[u] * d, y_slope[v] * d, d) + t_wc;
-        const Eigen::Vector3f lo_f = (p.array() - trunc) / block_size;
-        const Eigen::Vector3f hi_f = (p.array() + trunc) / block_size;
-        if (!lo_f.allFinite() || !hi_f.allFinite()) continue;
-        const Eigen::Vector3i lo(static_cast<int>(std::floor(lo_f.x())),
-                                 static_cast<int>(std::floor(lo_f.y())),
-                                 static_cast<int>(std::floor(lo_f.z())));
-        const Eigen::Vector3i hi(static_cast<int>(std::floor(hi_f.x())),
-                                 static_cast<int>(std::floor(hi_f.y())),
-                                 static_cast<int>(std::floor(hi_f.z())));
-        if (lo == last_lo && hi == last_hi) continue;  // neighbours mostly touch the same blocks
-        last_lo = lo;
-        last_hi = hi;
-        if (!in_key_range(lo.x()) || !in_key_range(lo.y()) || !in_key_range(lo.z()) ||
-            !in_key_range(hi.x()) || !in_key_range(hi.y()) || !in_key_range(hi.z()))
-          continue;
-        for (int z = lo.z(); z <= hi.z(); ++z)
-          for (int y = lo.y(); y <= hi.y(); ++y)
-            for (int x = lo.x(); x <= hi.x(); ++x) out.push_back(pack(x, y, z));
+        // Samples along the ray from d - truncation to d + truncation, at most half a block
+        // apart: the blocks the band crosses (the voxel-hashing allocation of Niessner 2013).
+        const Eigen::Vector3f ray = R_wc * Eigen::Vector3f(x_slope[u], y_slope[v], 1.f);
+        const float band_lo = std::max(d - trunc, 1e-3f), band_hi = d + trunc;
+        const int steps = 1 + static_cast<int>((band_hi - band_lo) * ray.norm() / (0.5f * block_size));
+        for (int k = 0; k <= steps; ++k) {
+          const float depth_k = band_lo + (band_hi - band_lo) * static_cast<float>(k) / steps;
+          const Eigen::Vector3f q = (ray * depth_k + t_wc) / block_size;
+          if (!q.allFinite()) break;
+          const int bx = static_cast<int>(std::floor(q.x()));
+          const int by = static_cast<int>(std::floor(q.y()));
+          const int bz = static_cast<int>(std::floor(q.z()));
+          if (!in_key_range(bx) || !in_key_range(by) || !in_key_range(bz)) continue;
+          const std::uint64_t key = pack(bx, by, bz);
+          if (key == last_key[k & 3]) continue;  // neighbouring pixels touch the same blocks
+          last_key[k & 3] = key;
+          out.push_back(key);
+        }
       }
     }
     std::sort(out.begin(), out.end());

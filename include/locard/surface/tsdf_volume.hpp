@@ -7,8 +7,8 @@
 // Voxels live in blocks of 8^3, allocated on demand in a hash map keyed by block coordinates.
 //
 // Integration of one frame with pose T_world_camera (camera-to-world):
-//  1. allocation: every valid depth pixel, back-projected to p_world, touches the blocks that
-//     overlap the box p_world +- truncation (as Open3D's ScalableTSDFVolume does);
+//  1. allocation: every valid depth pixel touches the blocks its ray crosses within the
+//     truncation band, depth - truncation to depth + truncation (sampled at half a block);
 //  2. update, parallel over the touched blocks: each voxel centre is moved into the camera,
 //     p_c = T_world_camera^-1 * p, projected to the nearest pixel (u, v) with depth d and
 //        sdf = (d - z_c) * sqrt(1 + ((u - cx)/fx)^2 + ((v - cy)/fy)^2)   (distance along the ray)

@@ -1,0 +1,234 @@
+// `locard mesh DIR -o OUT`: fuses an RGB-D sequence into a coloured mesh (TSDF + marching
+// cubes), cleans it up, optionally fills small holes (flagged), and exports it with the
+// registered point cloud beside it.
+//
+// Poses, first found: --trajectory FILE (TUM format, as `locard align` writes), a
+// trajectory.txt in DIR, or the sequence's ground truth. Exit status 2 on bad input.
+#include "commands.hpp"
+
+#include <locard/core/atomic_file.hpp>
+#include <locard/core/error.hpp>
+#include <locard/core/progress.hpp>
+#include <locard/io/mesh_export.hpp>
+#include <locard/io/ply.hpp>
+#include <locard/io/rgbd_sequence.hpp>
+#include <locard/io/trajectory_io.hpp>
+#include <locard/surface/fusion.hpp>
+#include <locard/surface/mesh_cleanup.hpp>
+
+#include <fmt/format.h>
+#include <fmt/ranges.h>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <filesystem>
+#include <sstream>
+
+namespace locard::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct MeshOptions {
+  std::string input;
+  std::string output;
+  std::string trajectory;
+  std::string method = "tsdf";
+  double voxel = 0.01;
+  double truncation = 0.0;  // 0: 4 voxels
+  double max_depth = 4.0;
+  double min_depth = 0.1;
+  std::size_t step = 1;
+  std::size_t max_frames = 0;
+  std::size_t min_component = 500;
+  std::size_t fill_holes = 0;
+  std::size_t target_triangles = 0;
+  std::string formats = "ply,obj,glb,fbx";
+  bool show_inferred = false;
+  bool no_cloud = false;
+  bool force = false;
+};
+
+std::vector<MeshFormat> parse_formats(const std::string& list) {
+  std::vector<MeshFormat> out;
+  std::stringstream in(list);
+  std::string name;
+  while (std::getline(in, name, ',')) {
+    const auto f = parse_mesh_format(name);
+    if (!f)
+      throw InputError(fmt::format("--format: unknown format '{}' (ply, obj, glb, gltf, fbx)",
+                                   name));
+    out.push_back(*f);
+  }
+  if (out.empty()) throw InputError("--format: at least one format is needed");
+  return out;
+}
+
+int run_mesh(const MeshOptions& o, const GlobalOptions& global) {
+  const auto start = std::chrono::steady_clock::now();
+  if (o.method != "tsdf")
+    throw InputError(fmt::format("--method {}: only tsdf is available for RGB-D sequences in "
+                                 "this version",
+                                 o.method));
+  const std::vector<MeshFormat> formats = parse_formats(o.formats);
+  if (!fs::exists(o.input)) throw_input_error(o.input, "no such folder");
+  if (fs::exists(o.output) && !fs::is_directory(o.output))
+    throw_input_error(o.output, "exists and is not a folder");
+  if (fs::is_directory(o.output) && !fs::is_empty(o.output) && !o.force)
+    throw_input_error(o.output, "folder is not empty; pass --force to write into it");
+
+  const RgbdSequence sequence = open_rgbd_sequence(o.input);
+  if (sequence.frames.empty()) throw_input_error(o.input, "the sequence has no frames");
+  std::string pose_source;
+  std::vector<std::optional<Isometry3d>> poses;
+  fs::path trajectory = o.trajectory;
+  if (trajectory.empty() && fs::exists(fs::path(o.input) / "trajectory.txt"))
+    trajectory = fs::path(o.input) / "trajectory.txt";
+  if (!trajectory.empty()) {
+    if (fs::is_directory(trajectory)) trajectory /= "trajectory.txt";
+    poses = match_poses(sequence, read_tum_trajectory(trajectory));
+    pose_source = trajectory.string();
+  } else if (sequence.has_ground_truth()) {
+    poses = ground_truth_poses(sequence);
+    pose_source = "ground truth (" + sequence.ground_truth_source + ")";
+  } else {
+    throw_input_error(o.input, "the sequence has no ground-truth poses; pass --trajectory "
+                               "FILE (TUM format, e.g. from `locard align`)");
+  }
+
+  FusionOptions fusion;
+  fusion.tsdf.voxel_size = o.voxel;
+  fusion.tsdf.truncation = o.truncation > 0.0 ? o.truncation : 4.0 * o.voxel;
+  fusion.tsdf.max_depth_m = o.max_depth;
+  fusion.tsdf.min_depth_m = o.min_depth;
+  fusion.frame_step = o.step;
+  fusion.max_frames = o.max_frames;
+  fusion.cloud_voxel = o.no_cloud ? 0.0 : o.voxel / 2.0;
+  ProgressBar bar("mesh", sequence.frames.size(), ProgressBar::should_show(global.quiet));
+  fusion.progress = bar.callback();
+  FusionResult fused = fuse_sequence(sequence, poses, fusion);
+  bar.finish();
+
+  TriangleMesh& mesh = fused.mesh;
+  const std::size_t raw_triangles = mesh.triangle_count();
+  const ComponentReport components = remove_small_components(mesh, o.min_component);
+  DecimationReport decimation{mesh.triangle_count(), mesh.triangle_count()};
+  if (o.target_triangles > 0) decimation = decimate(mesh, o.target_triangles);
+  MeshExportOptions export_options;
+  HoleFillReport holes;
+  if (o.fill_holes > 0) {
+    holes = fill_holes(mesh, o.fill_holes);
+    export_options.inferred_triangles = holes.inferred_triangles;
+    export_options.show_inferred = o.show_inferred;
+  }
+
+  fs::create_directories(o.output);
+  std::vector<std::string> written;
+  for (MeshFormat f : formats) {
+    const fs::path path = fs::path(o.output) / fmt::format("mesh.{}", to_string(f));
+    write_mesh(path, mesh, export_options);
+    written.push_back(path.filename().string());
+    if (f == MeshFormat::Obj) written.push_back("mesh.mtl");
+  }
+  if (!fused.cloud.empty()) {
+    write_ply(fs::path(o.output) / "cloud.ply", fused.cloud);
+    written.push_back("cloud.ply");
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  nlohmann::json report = {
+      {"input", o.input},
+      {"format", std::string(to_string(sequence.format))},
+      {"poses", pose_source},
+      {"method", o.method},
+      {"voxel_size", fusion.tsdf.voxel_size},
+      {"truncation", fusion.tsdf.truncation},
+      {"depth_range", {fusion.tsdf.min_depth_m, fusion.tsdf.max_depth_m}},
+      {"frames_fused", fused.frames_fused},
+      {"frames_without_pose", fused.frames_without_pose},
+      {"blocks", fused.stats.blocks},
+      {"volume_bytes", fused.stats.memory_bytes},
+      {"raw_triangles", raw_triangles},
+      {"components", components.components},
+      {"removed_components", components.removed_components},
+      {"removed_triangles", components.removed_triangles},
+      {"decimated_to", decimation.triangles_after},
+      {"filled_holes", holes.filled_loops},
+      {"inferred_triangles", holes.added_triangles},
+      {"vertices", mesh.vertex_count()},
+      {"triangles", mesh.triangle_count()},
+      {"cloud_points", fused.cloud.size()},
+      {"files", written},
+      {"seconds", seconds}};
+  {
+    AtomicFile file(fs::path(o.output) / "mesh.json", false);
+    file.stream() << report.dump(2) << "\n";
+    file.commit();
+  }
+  if (!global.quiet) {
+    fmt::print("mesh: fused {} frames of {} ({}) at voxel {:.4g} m, truncation {:.4g} m\n",
+               fused.frames_fused, o.input, pose_source, fusion.tsdf.voxel_size,
+               fusion.tsdf.truncation);
+    fmt::print("mesh: {} vertices, {} triangles ({} small components with {} triangles "
+               "removed{}{})\n",
+               mesh.vertex_count(), mesh.triangle_count(), components.removed_components,
+               components.removed_triangles,
+               o.target_triangles ? fmt::format(", decimated from {}", decimation.triangles_before)
+                                  : std::string(),
+               o.fill_holes ? fmt::format(", {} holes filled with {} inferred triangles",
+                                          holes.filled_loops, holes.added_triangles)
+                            : std::string());
+    fmt::print("mesh: wrote {} in {} ({:.1f} s)\n", fmt::join(written, ", "), o.output, seconds);
+  }
+  return 0;
+}
+
+}  // namespace
+
+void register_mesh(CLI::App& app, GlobalOptions& global) {
+  auto opt = std::make_shared<MeshOptions>();
+  CLI::App* sub = app.add_subcommand(
+      "mesh", "Fuse an RGB-D sequence into a coloured mesh (TSDF + marching cubes) and export "
+              "it as PLY, OBJ, GLB and FBX with the registered point cloud beside it");
+  sub->add_option("input", opt->input,
+                  "RGB-D sequence folder (TUM, 7-Scenes, Redwood, `locard scan-sim` output)")
+      ->required();
+  sub->add_option("-o,--output", opt->output, "Output folder")->required();
+  sub->add_option("--trajectory", opt->trajectory,
+                  "Camera poses, TUM format (T_world_camera per timestamp), or a folder with "
+                  "trajectory.txt (the output of `locard align`); default: DIR/trajectory.txt, "
+                  "else the sequence's ground truth");
+  sub->add_option("--method", opt->method, "Surface method: tsdf")->capture_default_str();
+  sub->add_option("--voxel", opt->voxel, "Voxel size in metres")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  sub->add_option("--truncation", opt->truncation, "Truncation in metres (default 4 voxels)")
+      ->check(CLI::NonNegativeNumber);
+  sub->add_option("--max-depth", opt->max_depth, "Ignore depth beyond this (m)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  sub->add_option("--min-depth", opt->min_depth, "Ignore depth closer than this (m)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  sub->add_option("--step", opt->step, "Fuse every n-th frame")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  sub->add_option("--max-frames", opt->max_frames, "Fuse at most this many frames (0: all)");
+  sub->add_option("--min-component", opt->min_component,
+                  "Drop connected pieces with fewer triangles")
+      ->capture_default_str();
+  sub->add_option("--fill-holes", opt->fill_holes,
+                  "Fill holes whose rim has at most this many edges (0: none); filled "
+                  "triangles are flagged as inferred in every export");
+  sub->add_flag("--show-inferred", opt->show_inferred,
+                "Colour inferred (filled) triangles magenta in the exports");
+  sub->add_option("--target-triangles", opt->target_triangles,
+                  "Decimate to about this many triangles (0: keep all)");
+  sub->add_option("--format", opt->formats, "Comma-separated: ply, obj, glb, gltf, fbx")
+      ->capture_default_str();
+  sub->add_flag("--no-cloud", opt->no_cloud, "Do not write the registered point cloud");
+  sub->add_flag("--force", opt->force, "Write into a non-empty output folder");
+  set_runner(sub, [opt, &global]() { return run_mesh(*opt, global); });
+}
+
+}  // namespace locard::cli
