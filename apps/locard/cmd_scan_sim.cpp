@@ -86,7 +86,9 @@ void register_scan_sim(CLI::App& app, GlobalOptions& global) {
   cmd->add_option("-o,--output", options->output, "Output folder")->required();
   cmd->add_option("--views", options->views, "Views per pitch row (overrides the scene)")
       ->check(CLI::Range(1, 100000));
-  cmd->add_option("--seed", options->seed, "Random seed (overrides the scene)");
+  // CLI11 would wrap "-3" into a huge unsigned value: refuse negative numbers explicitly.
+  cmd->add_option("--seed", options->seed, "Random seed (overrides the scene)")
+      ->check(CLI::NonNegativeNumber);
   cmd->add_flag("--no-noise", options->no_noise, "Exact depth and colour, no sensor noise");
   cmd->add_flag("--color-hd", options->color_hd,
                 "Also write 1920x1080 colour (rgb_hd/, same poses)");

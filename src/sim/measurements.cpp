@@ -9,6 +9,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <numbers>
 
 namespace locard::sim {
@@ -75,10 +76,21 @@ Measurement mesh_extent(const SceneObject& o) {
   }
   int k = 0;
   (hi - lo).maxCoeff(&k);
-  std::size_t i_lo = 0, i_hi = 0;
-  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+  // The lowest vertex along that axis, and of the highest ones the nearest to it, so that the
+  // pair runs as parallel to the axis as the mesh allows (a box gives exactly its edge).
+  std::size_t i_lo = 0;
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i)
     if (mesh.vertices[i][k] < mesh.vertices[i_lo][k]) i_lo = i;
-    if (mesh.vertices[i][k] > mesh.vertices[i_hi][k]) i_hi = i;
+  const float top = hi[k] - 1e-6f * (hi[k] - lo[k]);
+  std::size_t i_hi = i_lo;
+  float best = std::numeric_limits<float>::max();
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
+    if (mesh.vertices[i][k] < top) continue;
+    const float d = (mesh.vertices[i] - mesh.vertices[i_lo]).squaredNorm();
+    if (d < best) {
+      best = d;
+      i_hi = i;
+    }
   }
   Measurement m;
   m.a = mesh.vertices[i_lo].cast<double>();
