@@ -16,8 +16,10 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
+#include <atomic>
 #include <cmath>
 #include <limits>
+#include <memory>
 #include <numbers>
 
 namespace locard {
@@ -208,7 +210,7 @@ PreparedTarget prepare_target(const PointCloud& cloud, const IcpOptions& o) {
 }
 
 // Everything one pass over the source accumulates. H is kept upper-triangular during the
-// reduction (rankUpdate) and mirrored before use.
+// reduction and mirrored before use.
 struct PassSums {
   Matrix6d H = Matrix6d::Zero();  // Gauss-Newton (point-to-plane, coloured)
   Vector6d b = Vector6d::Zero();
@@ -263,14 +265,36 @@ Matrix6d to_target_frame(const Matrix6d& H, const Eigen::Vector3d& c) {
   return A.transpose() * H * A;
 }
 
+// H += w J J^T (upper triangle only), b += w r J. Written out: Eigen's rankUpdate is a call
+// into a generic kernel, too heavy for one 6-vector per correspondence.
+inline void add_weighted(PassSums& acc, const Vector6d& J, double w, double r) {
+  const Vector6d wJ = w * J;
+  for (int c = 0; c < 6; ++c)
+    for (int row = 0; row <= c; ++row) acc.H(row, c) += wJ(row) * J(c);
+  acc.b += r * wJ;
+}
+
 struct PassContext {
   const PreparedSource& source;
   const PreparedTarget& target;
   const IcpOptions& options;
-  // Index of each source point's previous correspondence (kNoMatch if none), or empty. Only
-  // a search hint: see run_pass.
+  // Search hints, both optional (see run_pass): each source point's previous correspondence
+  // (kNoMatch if none), and per target point (R/2)^2, R being its distance to the nearest
+  // other target point, filled on first use (negative: not yet known).
   std::vector<std::uint32_t>* previous = nullptr;
+  std::atomic<float>* half_spacing_sq = nullptr;
 };
+
+// (R_j / 2)^2 for target point j, computed once (a 2-NN query) and cached. Threads may race
+// to fill the same entry; they write the same value.
+float half_spacing_sq(const PassContext& ctx, std::uint32_t j, std::vector<Neighbor>& scratch) {
+  float v = ctx.half_spacing_sq[j].load(std::memory_order_relaxed);
+  if (v >= 0.f) return v;
+  const KdTree& tree = ctx.target.tree;
+  v = tree.knn(tree.points()[j], 2, scratch) == 2 ? 0.25f * scratch[1].squared_distance : 0.f;
+  ctx.half_spacing_sq[j].store(v, std::memory_order_relaxed);
+  return v;
+}
 
 constexpr std::uint32_t kNoMatch = std::numeric_limits<std::uint32_t>::max();
 
@@ -283,6 +307,7 @@ PassSums run_pass(const PassContext& ctx, const Isometry3d& T_c) {
   const auto& tpts = ctx.target.tree.points();
   const KdTree& tree = ctx.target.tree;
   const float max_d = static_cast<float>(ctx.options.max_correspondence_distance);
+  const float max_d2 = max_d * max_d;
   const RobustKernel kernel = ctx.options.kernel;
   const double sqrt_lg = std::sqrt(ctx.options.lambda_geometric);
   const double sqrt_lc = std::sqrt(1.0 - ctx.options.lambda_geometric);
@@ -291,20 +316,31 @@ PassSums run_pass(const PassContext& ctx, const Isometry3d& T_c) {
       tbb::blocked_range<std::size_t>(0, src.size(), kGrain), PassSums{},
       [&](const tbb::blocked_range<std::size_t>& r, PassSums acc) {
         Neighbor nb;
+        std::vector<Neighbor> scratch;
         std::uint32_t* previous = ctx.previous ? ctx.previous->data() : nullptr;
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
           const Eigen::Vector3d q = R * src[i].cast<double>() + tr;
           const Eigen::Vector3f qf = q.cast<float>();
-          // Warm start: the previous correspondence is at distance d from q now, so the
-          // nearest point is at most d away; searching within min(d, max_d) (plus a relative
-          // 1e-5 for float rounding) finds exactly the same nearest point as a search within
-          // max_d, but prunes most of the tree.
+          // Exact shortcuts from the previous correspondence j, at distance d from q now:
+          //  - if d < R_j / 2 (R_j: distance from j to its nearest other target point), j is
+          //    still the nearest point (any other k has |q - k| >= R_j - d > d), so no search;
+          //  - otherwise the nearest point is at most d away: a search within min(d, max_d)
+          //    finds the same point as one within max_d, but prunes most of the tree.
+          // Margins (1e-3 relative on the first test, 1e-5 on the bound) absorb float rounding.
           float bound = max_d;
+          bool found = false;
           if (previous && previous[i] != kNoMatch) {
-            const float d = (qf - tpts[previous[i]]).norm() * (1.f + 1e-5f) + 1e-9f;
-            bound = std::min(bound, d);
+            const std::uint32_t j = previous[i];
+            const float d2 = (qf - tpts[j]).squaredNorm();
+            if (ctx.half_spacing_sq && d2 <= max_d2 &&
+                d2 < 0.999f * half_spacing_sq(ctx, j, scratch)) {
+              nb = Neighbor{j, d2};
+              found = true;
+            } else {
+              bound = std::min(bound, std::sqrt(d2) * (1.f + 1e-5f) + 1e-9f);
+            }
           }
-          if (!tree.nearest(qf, nb, bound)) {
+          if (!found && !tree.nearest(qf, nb, bound)) {
             if (previous) previous[i] = kNoMatch;
             continue;
           }
@@ -334,8 +370,7 @@ PassSums run_pass(const PassContext& ctx, const Isometry3d& T_c) {
               J << q.cross(n), n;
             }
             double w = kernel.weight(res);
-            acc.H.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
-            acc.b += (w * res) * J;
+            add_weighted(acc, J, w, res);
             if constexpr (M == IcpMethod::Colored) {
               // Photometric residual r_C = C(t) + d . (f(q) - t) - C_s, f(q) the projection
               // of q on the tangent plane of t; dr_C/dq = g^T, g = (I - n n^T) d.
@@ -346,8 +381,7 @@ PassSums run_pass(const PassContext& ctx, const Isometry3d& T_c) {
               const Eigen::Vector3d g = sqrt_lc * (d - n * n.dot(d));
               J << q.cross(g), g;
               w = kernel.weight(rc);
-              acc.H.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
-              acc.b += (w * rc) * J;
+              add_weighted(acc, J, w, rc);
             }
           }
         }
@@ -440,7 +474,10 @@ IcpResult run_icp(const PreparedSource& source, const PreparedTarget& target,
   result.target_normals_estimated = target.normals_estimated;
 
   std::vector<std::uint32_t> previous(source.points.size(), kNoMatch);
-  const PassContext ctx{source, target, o, &previous};
+  const std::unique_ptr<std::atomic<float>[]> half_spacing(
+      new std::atomic<float>[target.tree.size()]);
+  for (std::size_t j = 0; j < target.tree.size(); ++j) half_spacing[j].store(-1.f);
+  const PassContext ctx{source, target, o, &previous, half_spacing.get()};
   const double n_source = static_cast<double>(source.points.size());
   Isometry3d T_c = to_centred(init_T_target_source, target.centroid, source.centroid);
   const auto fitness_of = [&](const PassSums& s) { return s.count / n_source; };

@@ -202,8 +202,8 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
         const Eigen::Vector3f ray = R_wc * Eigen::Vector3f(x_slope[u], y_slope[v], 1.f);
         const float band_lo = std::max(d - trunc, 1e-3f), band_hi = d + trunc;
         const int steps = 1 + static_cast<int>((band_hi - band_lo) * ray.norm() / (0.5f * block_size));
-        for (int k = 0; k <= steps; ++k) {
-          const float depth_k = band_lo + (band_hi - band_lo) * static_cast<float>(k) / steps;
+        for (int step = 0; step <= steps; ++step) {
+          const float depth_k = band_lo + (band_hi - band_lo) * static_cast<float>(step) / steps;
           const Eigen::Vector3f q = (ray * depth_k + t_wc) / block_size;
           if (!q.allFinite()) break;
           const int bx = static_cast<int>(std::floor(q.x()));
@@ -211,8 +211,8 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
           const int bz = static_cast<int>(std::floor(q.z()));
           if (!in_key_range(bx) || !in_key_range(by) || !in_key_range(bz)) continue;
           const std::uint64_t key = pack(bx, by, bz);
-          if (key == last_key[k & 3]) continue;  // neighbouring pixels touch the same blocks
-          last_key[k & 3] = key;
+          if (key == last_key[step & 3]) continue;  // neighbouring pixels touch the same blocks
+          last_key[step & 3] = key;
           out.push_back(key);
         }
       }
