@@ -9,11 +9,20 @@ packages=(
   # core libraries
   libeigen3-dev libtbb-dev libnanoflann-dev libcli11-dev libspdlog-dev libfmt-dev
   nlohmann-json3-dev libpng-dev libjpeg-dev libembree-dev libceres-dev libassimp-dev libcgal-dev
+  # case integrity (SHA-256), local viewer server, physics scenarios
+  libssl-dev libcpp-httplib-dev libbullet-dev
+  # browser tests of the report and viewer (headless Chromium driven by Playwright)
+  chromium fonts-dejavu-core
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # reference peer for benchmarks and cross-checks (never a runtime dependency)
   python3 python3-numpy python3-open3d
 )
+
+# Node.js and npm bundle the viewer (three.js) and drive the browser tests. A machine may
+# already carry another build of Node (with its own npm); Debian's are installed only when
+# there is no npm at all.
+if ! command -v npm >/dev/null 2>&1; then packages+=(nodejs npm); fi
 
 missing=()
 for p in "${packages[@]}"; do

@@ -6,6 +6,7 @@
 #include <array>
 #include <cstdio>
 #include <sys/wait.h>
+#include <unistd.h>
 #include <vector>
 
 namespace locard::test {
@@ -13,8 +14,15 @@ namespace locard::test {
 std::filesystem::path shared_data() { return LOCARD_SHARED_DATA; }
 
 std::filesystem::path scratch_dir() {
-  const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  std::string name = info ? std::string(info->test_suite_name()) + "." + info->name() : "scratch";
+  // ctest runs the tests of one executable in parallel processes, and SetUpTestSuite has no
+  // current test: the suite name plus the process id keeps every caller's folder its own.
+  const auto* unit = ::testing::UnitTest::GetInstance();
+  const auto* info = unit->current_test_info();
+  const auto* suite = unit->current_test_suite();
+  std::string name = info    ? std::string(info->test_suite_name()) + "." + info->name()
+                     : suite ? std::string(suite->name()) + ".suite"
+                             : std::string("scratch");
+  name += "." + std::to_string(::getpid());
   std::replace(name.begin(), name.end(), '/', '_');
   const auto dir = std::filesystem::temp_directory_path() / "locard-tests" / name;
   std::filesystem::remove_all(dir);
