@@ -1,0 +1,25 @@
+#pragma once
+// Marginal covariance of every pose-graph node: the inverse of the Gauss-Newton Hessian of the
+// pose graph at its optimum, with the gauge node held fixed.
+//
+// Each kept edge contributes J^T (Lambda / sigma^2) J, J the derivative of the edge residual xi
+// (pose_graph.hpp) with respect to left perturbations exp(delta) T_world_node of its two nodes
+// (taken by central differences, delta = (rotation, translation) in the world frame), Lambda its
+// information matrix (a sum over ICP correspondences of unit-weight terms, so it is scaled by
+// the correspondences' residual variance sigma^2: the inlier RMSE of the registration, at
+// least the sensor's noise floor). Loop edges are weighted by their line-process weight.
+// The result for node k is Sigma_k (6x6), world-frame left perturbation: a world point p seen
+// from node k moves by  [-[p]x  I] delta,  so its covariance is J Sigma_k J^T.
+
+#include <locard/alignment/pose_graph.hpp>
+
+#include <vector>
+
+namespace locard::forensics {
+
+// residual_sigma_m: per edge (same order as graph.edges) or one value for all.
+std::vector<Matrix6d> pose_covariances(const PoseGraph& graph,
+                                       const std::vector<double>& residual_sigma_m,
+                                       std::size_t fixed_node = 0);
+
+}  // namespace locard::forensics

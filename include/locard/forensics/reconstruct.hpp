@@ -1,0 +1,102 @@
+#pragma once
+// `locard reconstruct INPUT -o CASE_DIR`: the whole pipeline in one call, into a case folder
+// (docs/case-format.md):
+//   ingest     hash every input file (sequence images, index files, intrinsics, ground truth)
+//   align      sequential registration + loop closure + pose graph (sequential_alignment.hpp)
+//              -> alignment/trajectory.txt, pose_graph.json, pose_covariance.json,
+//                 stage_report.json/.svg
+//   mesh       TSDF fusion at the final poses, small pieces removed -> mesh/mesh.{ply,glb,obj,
+//              fbx}, mesh.json; the registered cloud -> cloud/registered.ply
+//   measure    the reference file (INPUT/measurements.json when the scan has one, or
+//              --reference) -> measurements/table.json, table.csv
+//   report     rendered views, plots and tables -> report/report.html (+ report.pdf)
+// Each stage appends one line to log.jsonl and rewrites manifest.json. case.json records what,
+// when, the inputs with their hashes, every parameter, the software version and the seeds.
+//
+// World frame: the first registered view's camera frame, unless that view has a ground-truth
+// pose (a simulated scan, a surveyed start position): then the whole model is moved rigidly so
+// that this one view sits at its known pose (the gauge of the pose graph; the other poses stay
+// estimated), giving the scene's z-up frame.
+
+#include <locard/core/progress.hpp>
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace locard::forensics {
+
+struct ReconstructParameters {
+  // Alignment (see AlignmentOptions)
+  std::string mode = "cumulative";
+  double align_voxel_m = 0.02;
+  int stride = 2;
+  double min_depth_m = 0.3;
+  double max_depth_m = 4.0;
+  std::size_t first_frame = 0;
+  std::size_t max_frames = 0;  // 0: all
+  bool loop_closure = true;
+  double loop_max_angle_deg = 20.0;
+  double loop_max_distance_m = 1.0;
+  double loop_min_fitness = 0.3;
+  std::uint64_t seed = 0;
+  // Surface
+  double mesh_voxel_m = 0.01;
+  double truncation_m = 0.0;  // 0: 4 voxels
+  std::size_t min_component = 500;
+  std::string formats = "ply,glb,obj,fbx";
+  double cloud_voxel_m = 0.005;
+  // Gauge: "auto" (ground truth of the first view when known), "first-camera"
+  std::string world_frame = "auto";
+  // Measurements
+  std::filesystem::path reference;  // empty: INPUT/measurements.json when present
+  double snap_radius_m = 0.03;
+  // Report
+  bool pdf = true;
+  int render_width = 640;
+  int render_height = 400;
+  std::string title;  // default: "Case <folder name>"
+
+  // Every field as a JSON object (text) and back; unknown keys in a --config file are an
+  // InputError naming the key and the file.
+  std::string to_json() const;
+  static ReconstructParameters from_json_file(const std::filesystem::path& path,
+                                              const ReconstructParameters& defaults);
+  // Defaults for a sensor ("kinect_v2", "tum_freiburg1", "7scenes", "redwood"...): depth
+  // range and voxels suited to its noise.
+  static ReconstructParameters defaults_for_sensor(const std::string& intrinsics_name);
+};
+
+struct StageCallbacks {
+  // Called at the start of each stage with its name and work count; returns the progress
+  // callback for it (may be empty).
+  std::function<ProgressCallback(const std::string& stage, std::size_t total)> begin;
+  std::function<void(const std::string& stage)> end;
+  std::function<void(const std::string& message)> log;  // human-readable notes, warnings
+};
+
+struct ReconstructSummary {
+  std::filesystem::path case_dir;
+  std::filesystem::path report_html;
+  std::optional<std::filesystem::path> report_pdf;
+  std::size_t frames = 0;
+  std::size_t registered = 0;
+  std::size_t vertices = 0;
+  std::size_t triangles = 0;
+  std::size_t measurements = 0;
+  std::size_t measurements_within = 0;
+  double seconds = 0.0;
+  std::vector<std::pair<std::string, double>> stage_seconds;
+};
+
+// Throws InputError for a bad input (exit 2 in the CLI) before anything is written; a case
+// folder that is not empty is refused unless `force`.
+ReconstructSummary reconstruct_case(const std::filesystem::path& input,
+                                    const std::filesystem::path& case_dir,
+                                    const ReconstructParameters& parameters, bool force,
+                                    const StageCallbacks& callbacks = {});
+
+}  // namespace locard::forensics
