@@ -23,6 +23,7 @@ void register_all(CLI::App& app, GlobalOptions& global) {
   register_eval_mesh(app, global);
   register_align(app, global);
   register_eval_trajectory(app, global);
+  register_simulate(app, global);
 }
 
 int run_selected(CLI::App& app) {

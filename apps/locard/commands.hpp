@@ -29,5 +29,6 @@ void register_mesh(CLI::App&, GlobalOptions&);
 void register_eval_mesh(CLI::App&, GlobalOptions&);
 void register_align(CLI::App& app, GlobalOptions& global);
 void register_eval_trajectory(CLI::App&, GlobalOptions&);
+void register_simulate(CLI::App&, GlobalOptions&);
 
 }  // namespace locard::cli
