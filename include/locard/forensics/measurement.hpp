@@ -141,4 +141,20 @@ std::vector<TableRow> compare_with_reference(const CaseModel& model,
                                              const std::vector<ReferenceMeasurement>& reference,
                                              const SnapOptions& options = {});
 
+// measurements/table.json ({"coverage_factor", "rows": [{"name", "real_m", "model_m",
+// "error_m", "expanded_uncertainty_m", "within_uncertainty", "a", "b"}]}) and table.csv.
+void write_measurement_table(const CaseFolder& folder, const std::vector<TableRow>& rows);
+
+// Ad-hoc measurements (CLI `locard measure`, the viewer) are appended to
+// measurements/measurements.json ({"measurements": [{"name", "kind", ...}]}); returns the
+// case-relative path written. The caller appends the log step.
+std::filesystem::path append_measurement(const CaseFolder& folder, const std::string& name,
+                                         const PointToPointMeasurement& m);
+std::filesystem::path append_measurement(const CaseFolder& folder, const std::string& name,
+                                         const PointToPlaneMeasurement& m);
+std::filesystem::path append_measurement(const CaseFolder& folder, const std::string& name,
+                                         const PlaneAngleMeasurement& m);
+// One measurement as JSON text (what append_measurement stores).
+std::string measurement_json(const PointToPointMeasurement& m);
+
 }  // namespace locard::forensics

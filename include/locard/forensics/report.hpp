@@ -48,6 +48,9 @@ struct ReportResult {
 // Reads everything from the case folder and writes report/report.html (and report.pdf).
 // Does not log: the caller appends the step.
 ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& options);
+// write_case_report with the options recorded in case.json, then a "report" step in the log
+// (and the manifest rewritten). What commands that add to a case call last.
+ReportResult refresh_case_report(CaseFolder& folder);
 
 // The Chromium binary to use: $LOCARD_CHROMIUM, else chromium / chromium-browser /
 // google-chrome on PATH or in /usr/bin; empty when there is none.

@@ -1,0 +1,121 @@
+// `locard marker add|list|frame CASE ...`: numbered, labelled evidence markers on the model,
+// reported in a chosen frame (evidence/markers.json + markers.csv); see evidence_markers.hpp.
+#include "case_point.hpp"
+#include "commands.hpp"
+
+#include <locard/forensics/case_folder.hpp>
+#include <locard/forensics/case_model.hpp>
+#include <locard/forensics/evidence_markers.hpp>
+#include <locard/forensics/measurement.hpp>
+#include <locard/forensics/report.hpp>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <memory>
+
+namespace locard::cli {
+namespace {
+
+namespace fx = locard::forensics;
+
+struct MarkerCli {
+  std::string case_dir;
+  std::string label, at, note;
+  bool no_snap = false;
+  std::string origin, x_point, xy_point, description = "case frame";
+  bool no_report = false;
+};
+
+void save(fx::CaseFolder& folder, const fx::MarkerSet& set, const std::string& step,
+          const nlohmann::json& params, double seconds, bool report) {
+  fx::write_markers(folder.path("evidence/markers.json"), set);
+  fx::LogStep s;
+  s.step = step;
+  s.parameters_json = params.dump();
+  s.duration_s = seconds;
+  s.outputs = {"evidence/markers.json", "evidence/markers.csv"};
+  folder.append_log_step(s);
+  if (report) fx::refresh_case_report(folder);
+}
+
+int run_add(const MarkerCli& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir);
+  fx::MarkerSet set = fx::read_markers(folder.root() / "evidence" / "markers.json");
+  const Eigen::Vector3d p = parse_case_point(o.at, set);
+  fx::EvidenceMarker m;
+  m.label = o.label;
+  m.note = o.note;
+  m.world = p;
+  const fx::CaseModel model = fx::CaseModel::load(folder);
+  const fx::SnappedPoint s = fx::snap_point(model, p);  // also refuses points off the model
+  if (!o.no_snap) {
+    m.world = s.snapped;
+    m.snapped = true;
+  }
+  m.expanded_uncertainty_m = 2.0 * std::sqrt(std::max(0.0, s.covariance.trace()));
+  const fx::EvidenceMarker& added = set.add(m);
+  const Eigen::Vector3d local = set.frame.to_local(added.world);
+  fmt::print("marker {} '{}' at ({:.4f}, {:.4f}, {:.4f}) in the case frame, +- {:.4f} m\n",
+             added.number, added.label, local.x(), local.y(), local.z(),
+             added.expanded_uncertainty_m);
+  save(folder, set, "marker add",
+       {{"label", o.label}, {"at", o.at}, {"snap", !o.no_snap}, {"note", o.note}},
+       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), !o.no_report);
+  return 0;
+}
+
+int run_list(const MarkerCli& o) {
+  const fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir);
+  const fx::MarkerSet set = fx::read_markers(folder.root() / "evidence" / "markers.json");
+  fmt::print("{}", fx::markers_csv(set));
+  return 0;
+}
+
+int run_frame(const MarkerCli& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir);
+  fx::MarkerSet set = fx::read_markers(folder.root() / "evidence" / "markers.json");
+  set.frame = fx::CaseFrame::from_points(parse_case_point(o.origin, set),
+                                         parse_case_point(o.x_point, set),
+                                         parse_case_point(o.xy_point, set), o.description);
+  save(folder, set, "marker frame",
+       {{"origin", o.origin}, {"x_point", o.x_point}, {"xy_point", o.xy_point},
+        {"description", o.description}},
+       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), !o.no_report);
+  fmt::print("{}", fx::markers_csv(set));
+  return 0;
+}
+
+}  // namespace
+
+void register_marker(CLI::App& app, GlobalOptions&) {
+  auto o = std::make_shared<MarkerCli>();
+  CLI::App* cmd = app.add_subcommand("marker", "Evidence markers of a case: add, list, frame");
+  cmd->require_subcommand(1);
+  CLI::App* add = cmd->add_subcommand("add", "Add a numbered, labelled marker on the model");
+  add->add_option("case", o->case_dir, "Case folder")->required();
+  add->add_option("--label", o->label, "Label, e.g. 'cartridge case'")->required();
+  add->add_option("--at", o->at, "x,y,z in the world frame (snapped to the surface)")->required();
+  add->add_option("--note", o->note, "Free text");
+  add->add_flag("--no-snap", o->no_snap, "Keep the point as given");
+  add->add_flag("--no-report", o->no_report, "Do not rewrite the report");
+  CLI::App* list = cmd->add_subcommand("list", "Print the markers as CSV (case frame)");
+  list->add_option("case", o->case_dir, "Case folder")->required();
+  CLI::App* frame = cmd->add_subcommand(
+      "frame", "Choose the frame markers are reported in: origin, a point on +x, a point in the "
+               "xy plane (+y side)");
+  frame->add_option("case", o->case_dir, "Case folder")->required();
+  frame->add_option("--origin", o->origin, "x,y,z or a marker")->required();
+  frame->add_option("--x-point", o->x_point, "x,y,z or a marker on the +x axis")->required();
+  frame->add_option("--xy-point", o->xy_point, "x,y,z or a marker in the xy plane")->required();
+  frame->add_option("--description", o->description, "What the frame is");
+  frame->add_flag("--no-report", o->no_report, "Do not rewrite the report");
+  set_runner(add, [o] { return run_add(*o); });
+  set_runner(list, [o] { return run_list(*o); });
+  set_runner(frame, [o] { return run_frame(*o); });
+}
+
+}  // namespace locard::cli

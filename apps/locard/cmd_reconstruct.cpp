@@ -1,0 +1,115 @@
+// `locard reconstruct INPUT -o CASE_DIR`: scan to case folder in one command (read, align,
+// loop closure, mesh, export, measurements, report); see include/locard/forensics/reconstruct.hpp
+// and docs/case-format.md. Exit status: 0 done, 2 bad input (nothing written over).
+#include "commands.hpp"
+
+#include <locard/core/error.hpp>
+#include <locard/core/progress.hpp>
+#include <locard/forensics/reconstruct.hpp>
+#include <locard/io/rgbd_sequence.hpp>
+
+#include <fmt/format.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+namespace locard::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ReconstructCli {
+  std::string input;
+  std::string output;
+  std::string config;
+  std::string reference;
+  std::optional<double> voxel;
+  std::optional<double> mesh_voxel;
+  std::optional<std::size_t> frames;
+  std::optional<std::uint64_t> seed;
+  std::optional<std::string> mode;
+  bool no_pdf = false;
+  bool force = false;
+};
+
+int run_reconstruct(const ReconstructCli& o, const GlobalOptions& global) {
+  namespace fx = locard::forensics;
+  if (!fs::exists(o.input)) throw_input_error(o.input, "no such file or folder");
+  // Sensor defaults first, then the config file, then flags.
+  std::string sensor;
+  if (fs::is_directory(o.input)) {
+    const DatasetFormat format = detect_format(o.input);
+    if (format == DatasetFormat::Tum || format == DatasetFormat::SevenScenes ||
+        format == DatasetFormat::Redwood)
+      sensor = open_rgbd_sequence(o.input).intrinsics.name;
+  }
+  fx::ReconstructParameters p = fx::ReconstructParameters::defaults_for_sensor(sensor);
+  if (!o.config.empty()) p = fx::ReconstructParameters::from_json_file(o.config, p);
+  if (!o.reference.empty()) p.reference = o.reference;
+  if (o.voxel) p.align_voxel_m = *o.voxel;
+  if (o.mesh_voxel) p.mesh_voxel_m = *o.mesh_voxel;
+  if (o.frames) p.max_frames = *o.frames;
+  if (o.seed) p.seed = *o.seed;
+  if (o.mode) p.mode = *o.mode;
+  if (o.no_pdf) p.pdf = false;
+
+  const bool show = ProgressBar::should_show(global.quiet);
+  std::unique_ptr<ProgressBar> bar;
+  fx::StageCallbacks cb;
+  cb.begin = [&](const std::string& stage, std::size_t total) -> ProgressCallback {
+    if (!global.quiet && !show) fmt::print("reconstruct: {} ...\n", stage);
+    std::fflush(stdout);
+    bar = std::make_unique<ProgressBar>(stage, std::max<std::size_t>(total, 1), show);
+    return bar->callback();
+  };
+  cb.end = [&](const std::string&) {
+    if (bar) bar->finish();
+    bar.reset();
+  };
+  cb.log = [&](const std::string& m) { std::fprintf(stderr, "locard: %s\n", m.c_str()); };
+  const fx::ReconstructSummary s = fx::reconstruct_case(o.input, o.output, p, o.force, cb);
+  if (!global.quiet) {
+    fmt::print("reconstruct: {} of {} views registered; mesh {} vertices, {} triangles\n",
+               s.registered, s.frames, s.vertices, s.triangles);
+    if (s.measurements)
+      fmt::print("reconstruct: {} reference measurements, {} within their stated uncertainty "
+                 "(measurements/table.csv)\n",
+                 s.measurements, s.measurements_within);
+    std::string stages;
+    for (const auto& [name, sec] : s.stage_seconds)
+      stages += fmt::format("{}{} {:.1f} s", stages.empty() ? "" : ", ", name, sec);
+    fmt::print("reconstruct: {:.1f} s ({})\n", s.seconds, stages);
+    fmt::print("reconstruct: case folder {}\n", s.case_dir.string());
+    fmt::print("reconstruct: report {}\n", fs::absolute(s.report_html).string());
+    if (s.report_pdf) fmt::print("reconstruct: report {}\n", fs::absolute(*s.report_pdf).string());
+  }
+  return 0;
+}
+
+}  // namespace
+
+void register_reconstruct(CLI::App& app, GlobalOptions& global) {
+  auto o = std::make_shared<ReconstructCli>();
+  CLI::App* cmd = app.add_subcommand(
+      "reconstruct",
+      "Scan to case folder in one command: hash the inputs, align (registration, loop closure, "
+      "pose graph), mesh, export, measure the reference distances, write the report");
+  cmd->add_option("input", o->input, "RGB-D sequence folder (TUM, 7-Scenes, Redwood, scan-sim)")
+      ->required();
+  cmd->add_option("-o,--output", o->output, "Case folder to create")->required();
+  cmd->add_option("--config", o->config,
+                  "JSON file of parameters (every key of case.json's \"parameters\")");
+  cmd->add_option("--reference", o->reference,
+                  "Reference (tape) measurements, JSON; default INPUT/measurements.json");
+  cmd->add_option("--voxel", o->voxel, "Alignment voxel (m)")->check(CLI::PositiveNumber);
+  cmd->add_option("--mesh-voxel", o->mesh_voxel, "TSDF voxel (m)")->check(CLI::PositiveNumber);
+  cmd->add_option("--frames", o->frames, "Use at most this many frames");
+  cmd->add_option("--seed", o->seed, "RANSAC seed");
+  cmd->add_option("--mode", o->mode, "cumulative or odometry");
+  cmd->add_flag("--no-pdf", o->no_pdf, "Do not print report.pdf");
+  cmd->add_flag("--force", o->force, "Replace an existing case folder");
+  set_runner(cmd, [o, &global] { return run_reconstruct(*o, global); });
+}
+
+}  // namespace locard::cli

@@ -1,0 +1,163 @@
+// Case folder integrity: SHA-256 against published vectors, the append-only log's hash chain,
+// the manifest, and verify_case naming each changed, missing or added file.
+#include <locard/forensics/case_folder.hpp>
+#include <locard/forensics/integrity.hpp>
+
+#include <locard/core/error.hpp>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "test_support.hpp"
+
+#include <fstream>
+#include <set>
+
+namespace locard::forensics {
+namespace {
+
+namespace fs = std::filesystem;
+
+void write(const fs::path& p, const std::string& text) {
+  fs::create_directories(p.parent_path());
+  std::ofstream(p, std::ios::binary) << text;
+}
+
+void flip_byte(const fs::path& p, std::size_t offset) {
+  std::fstream f(p, std::ios::binary | std::ios::in | std::ios::out);
+  f.seekg(static_cast<std::streamoff>(offset));
+  char c = 0;
+  f.get(c);
+  f.seekp(static_cast<std::streamoff>(offset));
+  f.put(static_cast<char>(c ^ 0x01));
+}
+
+// A case with case.json, one input outside it and one output, logged.
+CaseFolder make_case(const fs::path& dir, const fs::path& input_dir) {
+  write(input_dir / "depth" / "000000.png", "depth bytes");
+  CaseFolder c = CaseFolder::create(dir / "case", false);
+  const std::string input_hash = sha256_file(input_dir / "depth" / "000000.png");
+  nlohmann::json cj = {{"inputs", {{"root", input_dir.string()},
+                                   {"files", {{{"path", "depth/000000.png"},
+                                               {"bytes", 11},
+                                               {"sha256", input_hash}}}}}}};
+  write(c.path("case.json"), cj.dump());
+  write(c.path("mesh/mesh.ply"), "ply\nformat binary_little_endian 1.0\nend_header\n0123456789");
+  LogStep s;
+  s.step = "mesh";
+  s.parameters_json = R"({"voxel_m": 0.01})";
+  s.inputs = {input_dir / "depth" / "000000.png"};
+  s.outputs = {"case.json", "mesh/mesh.ply"};
+  c.append_log_step(s);
+  return c;
+}
+
+TEST(Sha256, PublishedVectors) {
+  // FIPS 180-2 examples.
+  EXPECT_EQ(sha256_hex(std::string_view("abc")),
+            "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  EXPECT_EQ(sha256_hex(std::string_view("")),
+            "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855");
+  const fs::path dir = test::scratch_dir();
+  write(dir / "f", "abc");
+  EXPECT_EQ(sha256_file(dir / "f"), sha256_hex(std::string_view("abc")));
+  EXPECT_THROW(sha256_file(dir / "missing"), InputError);
+}
+
+TEST(CaseFolder, RefusesToWriteOverWithoutForce) {
+  const fs::path dir = test::scratch_dir();
+  write(dir / "busy" / "notes.txt", "someone's notes");
+  EXPECT_THROW(CaseFolder::create(dir / "busy", false), InputError);
+  // Not a case: even --force leaves it alone.
+  EXPECT_THROW(CaseFolder::create(dir / "busy", true), InputError);
+  EXPECT_TRUE(fs::exists(dir / "busy" / "notes.txt"));
+  write(dir / "file", "x");
+  EXPECT_THROW(CaseFolder::create(dir / "file", true), InputError);
+  make_case(dir, dir / "input");
+  EXPECT_THROW(CaseFolder::create(dir / "case", false), InputError);
+  EXPECT_NO_THROW(CaseFolder::create(dir / "case", true));
+  EXPECT_TRUE(fs::is_empty(dir / "case"));
+  EXPECT_THROW(CaseFolder::open(dir / "busy"), InputError);
+}
+
+TEST(CaseFolder, LogIsAHashChainAndManifestListsEveryFile) {
+  const fs::path dir = test::scratch_dir();
+  CaseFolder c = make_case(dir, dir / "input");
+  write(c.path("evidence/markers.json"), "{}");
+  LogStep s;
+  s.step = "marker add";
+  s.outputs = {"evidence/markers.json"};
+  EXPECT_EQ(c.append_log_step(s), 1u);
+  std::ifstream log(dir / "case" / "log.jsonl");
+  std::string l0, l1;
+  std::getline(log, l0);
+  std::getline(log, l1);
+  const auto j0 = nlohmann::json::parse(l0), j1 = nlohmann::json::parse(l1);
+  EXPECT_EQ(j0["prev_sha256"], "");
+  EXPECT_EQ(j1["prev_sha256"], sha256_hex(l0));
+  EXPECT_EQ(j0["parameters"]["voxel_m"], 0.01);
+  EXPECT_EQ(j0["inputs"][0]["sha256"], sha256_hex(std::string_view("depth bytes")));
+  const auto manifest = nlohmann::json::parse(std::ifstream(dir / "case" / "manifest.json"));
+  EXPECT_EQ(manifest["files"].size(), 4u);  // case.json, log.jsonl, mesh.ply, markers.json
+  EXPECT_EQ(manifest["log_head_sha256"], sha256_hex(l1));
+  const VerifyReport r = verify_case(dir / "case");
+  EXPECT_TRUE(r.ok());
+  EXPECT_EQ(r.files_checked, 4u);
+  EXPECT_EQ(r.inputs_checked, 1u);
+  EXPECT_EQ(r.log_lines, 2u);
+  // Bad steps are refused.
+  LogStep bad;
+  bad.step = "x";
+  bad.parameters_json = "[1]";
+  EXPECT_THROW(c.append_log_step(bad), InputError);
+  bad.parameters_json = "{}";
+  bad.outputs = {"not/there.txt"};
+  EXPECT_THROW(c.append_log_step(bad), InputError);
+}
+
+TEST(VerifyCase, NamesChangedMissingAndAddedFiles) {
+  const fs::path dir = test::scratch_dir();
+  make_case(dir, dir / "input");
+  flip_byte(dir / "case" / "mesh" / "mesh.ply", 50);
+  write(dir / "case" / "extra.txt", "planted");
+  VerifyReport r = verify_case(dir / "case");
+  ASSERT_EQ(r.problems.size(), 2u);
+  std::set<std::string> seen;
+  for (const auto& p : r.problems) seen.insert(std::string(to_string(p.kind)) + " " + p.path);
+  EXPECT_TRUE(seen.count("changed mesh/mesh.ply"));
+  EXPECT_TRUE(seen.count("added extra.txt"));
+  fs::remove(dir / "case" / "mesh" / "mesh.ply");
+  r = verify_case(dir / "case");
+  EXPECT_EQ(r.problems[0].kind, VerifyProblem::Kind::Missing);
+  EXPECT_EQ(r.problems[0].path, "mesh/mesh.ply");
+}
+
+TEST(VerifyCase, InputChangedAndLogTampering) {
+  const fs::path dir = test::scratch_dir();
+  make_case(dir, dir / "input");
+  flip_byte(dir / "input" / "depth" / "000000.png", 0);
+  VerifyReport r = verify_case(dir / "case");
+  ASSERT_EQ(r.problems.size(), 1u);
+  EXPECT_EQ(r.problems[0].kind, VerifyProblem::Kind::InputChanged);
+  EXPECT_NE(r.problems[0].path.find("000000.png"), std::string::npos);
+  EXPECT_TRUE(verify_case(dir / "case", false).ok());  // inputs skipped
+
+  // Editing a log line breaks both the manifest hash and the chain head.
+  const fs::path other = test::scratch_dir();
+  make_case(other, other / "input");
+  flip_byte(other / "case" / "log.jsonl", 10);
+  r = verify_case(other / "case");
+  bool chain = false, changed = false;
+  for (const auto& p : r.problems) {
+    chain |= p.kind == VerifyProblem::Kind::LogChain;
+    changed |= p.kind == VerifyProblem::Kind::Changed && p.path == "log.jsonl";
+  }
+  EXPECT_TRUE(chain);
+  EXPECT_TRUE(changed);
+  // A tampered manifest that is not JSON is an InputError, not a pass.
+  write(other / "case" / "manifest.json", "{ not json");
+  EXPECT_THROW(verify_case(other / "case"), InputError);
+}
+
+}  // namespace
+}  // namespace locard::forensics

@@ -1,0 +1,240 @@
+#include <locard/forensics/case_model.hpp>
+
+#include "forensics/json_util.hpp"
+
+#include <locard/core/error.hpp>
+#include <locard/core/kdtree.hpp>
+#include <locard/forensics/case_folder.hpp>
+#include <locard/io/image_io.hpp>
+#include <locard/io/ply.hpp>
+#include <locard/sim/kinect_v2_model.hpp>
+#include <locard/sim/raycaster.hpp>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <mutex>
+
+namespace locard::forensics {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+json read_json(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) throw_input_error(path, "cannot be read");
+  try {
+    return json::parse(in);
+  } catch (const json::parse_error& e) {
+    throw_input_error(path, fmt::format("not valid JSON: {}", e.what()));
+  }
+}
+
+Isometry3d pose_from_json(const json& rows, const std::string& where) {
+  if (!rows.is_array() || rows.size() != 4) throw InputError(where + ": expected a 4x4 matrix");
+  Eigen::Matrix4d m;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) m(r, c) = rows.at(static_cast<std::size_t>(r)).at(static_cast<std::size_t>(c)).get<double>();
+  Isometry3d T;
+  T.matrix() = m;
+  return T;
+}
+
+}  // namespace
+
+double SensorNoiseModel::axial_sigma_m(double z_m, double incidence_rad) const {
+  if (name == "kinect_v2") return sim::KinectV2Model{}.axial_sigma_m(z_m, incidence_rad);
+  const double grazing = 1.0 / std::max(0.2, std::cos(std::clamp(incidence_rad, 0.0, 1.5)));
+  if (name == "structured_light") return (0.0012 + 0.0019 * (z_m - 0.4) * (z_m - 0.4)) * grazing;
+  if (name == "realsense") return 0.008 * z_m * grazing;
+  throw InputError(fmt::format("unknown sensor noise model '{}' (kinect_v2, structured_light, "
+                               "realsense)",
+                               name));
+}
+
+double SensorNoiseModel::lateral_sigma_m(double z_m) const {
+  if (name == "kinect_v2") return 0.0016;
+  return 0.0015 * std::max(z_m, 0.5);  // about 1.5 mrad: a pixel and a half of jitter
+}
+
+SensorNoiseModel SensorNoiseModel::for_camera(const std::string& intrinsics_name) {
+  SensorNoiseModel m;
+  if (intrinsics_name.find("kinect_v2") != std::string::npos) {
+    m.name = "kinect_v2";
+    m.depth_step_m = 0.001;
+  } else if (intrinsics_name.find("realsense") != std::string::npos) {
+    m.name = "realsense";
+    m.depth_step_m = 0.001;
+  } else {
+    m.name = "structured_light";  // TUM, 7-Scenes, Redwood: PrimeSense-type sensors
+    m.depth_step_m = 0.001;
+  }
+  return m;
+}
+
+struct CaseModel::Impl {
+  TriangleMesh mesh;
+  sim::Raycaster raycaster;
+  KdTree vertex_tree;
+  std::vector<ViewRecord> views;
+  CameraIntrinsics intrinsics;
+  double depth_scale = 1000.0;
+  SensorNoiseModel noise;
+  double voxel = 0.01;
+  std::mutex mutex;
+  std::vector<std::shared_ptr<const DepthImage>> depth;  // cache, per view
+  std::vector<bool> depth_failed;
+
+  Impl(TriangleMesh m, std::vector<ViewRecord> v)
+      : mesh(std::move(m)), raycaster(mesh), vertex_tree(mesh.vertices), views(std::move(v)),
+        depth(views.size()), depth_failed(views.size(), false) {}
+
+  std::shared_ptr<const DepthImage> load_depth(std::size_t k) {
+    std::lock_guard lock(mutex);
+    if (depth[k] || depth_failed[k]) return depth[k];
+    try {
+      if (views[k].depth_path.empty() || !fs::is_regular_file(views[k].depth_path))
+        throw InputError("missing");
+      depth[k] = std::make_shared<const DepthImage>(read_depth_image(views[k].depth_path));
+      if (depth[k]->width() != intrinsics.width || depth[k]->height() != intrinsics.height) {
+        depth[k].reset();
+        depth_failed[k] = true;
+      }
+    } catch (const Error&) {
+      depth_failed[k] = true;
+    }
+    return depth[k];
+  }
+};
+
+CaseModel::CaseModel(TriangleMesh mesh, std::vector<ViewRecord> views, CameraIntrinsics intrinsics,
+                     double depth_scale, SensorNoiseModel noise, double model_voxel_m) {
+  if (mesh.triangles.empty()) throw InputError("the model has no triangles to measure on");
+  impl_ = std::make_unique<Impl>(std::move(mesh), std::move(views));
+  impl_->intrinsics = std::move(intrinsics);
+  impl_->depth_scale = depth_scale;
+  impl_->noise = std::move(noise);
+  impl_->voxel = model_voxel_m;
+}
+
+CaseModel::~CaseModel() = default;
+CaseModel::CaseModel(CaseModel&&) noexcept = default;
+CaseModel& CaseModel::operator=(CaseModel&&) noexcept = default;
+
+CaseModel CaseModel::load(const CaseFolder& folder) {
+  const fs::path root = folder.root();
+  TriangleMesh mesh = folder.load_mesh();
+  const json case_json = read_json(root / "case.json");
+  const json views_json = read_json(root / "alignment" / "pose_covariance.json");
+  std::vector<ViewRecord> views;
+  const fs::path cov_path = root / "alignment" / "pose_covariance.json";
+  for (const json& v : views_json.at("views")) {
+    ViewRecord r;
+    r.frame_index = v.at("frame_index").get<std::int64_t>();
+    r.timestamp = v.at("timestamp").get<double>();
+    r.T_world_camera = pose_from_json(v.at("T_world_camera"), cov_path.string());
+    const json& c = v.at("covariance");
+    for (int i = 0; i < 6; ++i)
+      for (int j = 0; j < 6; ++j) r.covariance(i, j) = c.at(static_cast<std::size_t>(i)).at(static_cast<std::size_t>(j)).get<double>();
+    r.depth_path = v.value("depth_path", "");
+    views.push_back(std::move(r));
+  }
+  const json& sensor = case_json.at("sensor");
+  CameraIntrinsics K;
+  K.width = sensor.at("width").get<int>();
+  K.height = sensor.at("height").get<int>();
+  K.fx = sensor.at("fx").get<double>();
+  K.fy = sensor.at("fy").get<double>();
+  K.cx = sensor.at("cx").get<double>();
+  K.cy = sensor.at("cy").get<double>();
+  K.name = sensor.value("intrinsics_name", "");
+  SensorNoiseModel noise;
+  noise.name = sensor.value("noise_model", "kinect_v2");
+  noise.depth_step_m = sensor.value("depth_step_m", 0.001);
+  double voxel = 0.01;
+  if (fs::exists(root / "mesh" / "mesh.json"))
+    voxel = read_json(root / "mesh" / "mesh.json").value("voxel_size", 0.01);
+  return CaseModel(std::move(mesh), std::move(views), K, sensor.value("depth_scale", 1000.0),
+                   noise, voxel);
+}
+
+const TriangleMesh& CaseModel::mesh() const { return impl_->mesh; }
+const sim::Raycaster& CaseModel::raycaster() const { return impl_->raycaster; }
+const std::vector<ViewRecord>& CaseModel::views() const { return impl_->views; }
+const CameraIntrinsics& CaseModel::intrinsics() const { return impl_->intrinsics; }
+const SensorNoiseModel& CaseModel::noise() const { return impl_->noise; }
+double CaseModel::model_voxel_m() const { return impl_->voxel; }
+
+double CaseModel::distance_to_mesh(const Eigen::Vector3d& p) const {
+  Neighbor n;
+  if (!impl_->vertex_tree.nearest(p.cast<float>(), n)) return std::numeric_limits<double>::infinity();
+  return std::sqrt(static_cast<double>(n.squared_distance));
+}
+
+std::vector<std::uint32_t> CaseModel::observing_views(const Eigen::Vector3d& p,
+                                                      double tolerance_m) const {
+  std::vector<std::uint32_t> out;
+  const CameraIntrinsics& K = impl_->intrinsics;
+  for (std::uint32_t k = 0; k < impl_->views.size(); ++k) {
+    const Isometry3d& T = impl_->views[k].T_world_camera;
+    const Eigen::Vector3d pc = T.inverse() * p;
+    if (pc.z() <= 0.05) continue;
+    const double u = K.fx * pc.x() / pc.z() + K.cx, v = K.fy * pc.y() / pc.z() + K.cy;
+    if (u < 0 || v < 0 || u > K.width - 1 || v > K.height - 1) continue;
+    const Eigen::Vector3d c = T.translation();
+    const Eigen::Vector3d d = p - c;
+    const double len = d.norm();
+    const sim::RayHit hit = impl_->raycaster.intersect(c.cast<float>(), d.cast<float>(), 0.0f, 2.0f);
+    if (hit.hit() && hit.t * len < len - tolerance_m) continue;  // something in front of p
+    out.push_back(k);
+  }
+  return out;
+}
+
+LocalPoints CaseModel::local_points(const Eigen::Vector3d& p, double radius_m) const {
+  LocalPoints out;
+  const std::vector<std::uint32_t> seen = observing_views(p);
+  out.views_observing = seen.size();
+  const CameraIntrinsics& K = impl_->intrinsics;
+  bool any_depth = false;
+  const double r2 = radius_m * radius_m;
+  for (std::uint32_t k : seen) {
+    const std::shared_ptr<const DepthImage> depth = impl_->load_depth(k);
+    if (!depth) continue;
+    any_depth = true;
+    const Isometry3d& T = impl_->views[k].T_world_camera;
+    const Eigen::Vector3d pc = T.inverse() * p;
+    const double u0 = K.fx * pc.x() / pc.z() + K.cx, v0 = K.fy * pc.y() / pc.z() + K.cy;
+    const int half = static_cast<int>(std::ceil(radius_m * K.fx / pc.z() * 1.5)) + 1;
+    const int ulo = std::max(0, static_cast<int>(u0) - half), uhi = std::min(K.width - 1, static_cast<int>(u0) + half);
+    const int vlo = std::max(0, static_cast<int>(v0) - half), vhi = std::min(K.height - 1, static_cast<int>(v0) + half);
+    for (int v = vlo; v <= vhi; ++v)
+      for (int u = ulo; u <= uhi; ++u) {
+        const std::uint16_t raw = depth->at(u, v);
+        if (raw == 0) continue;
+        const double z = raw / impl_->depth_scale;
+        const Eigen::Vector3d q = T * Eigen::Vector3d((u - K.cx) / K.fx * z, (v - K.cy) / K.fy * z, z);
+        if ((q - p).squaredNorm() > r2) continue;
+        out.points.push_back(q);
+        out.axial_sigma_m.push_back(impl_->noise.axial_sigma_m(z, 0.0));
+        out.view.push_back(k);
+      }
+  }
+  if (!any_depth) {
+    out.from_raw_depth = false;
+    std::vector<Neighbor> near;
+    impl_->vertex_tree.radius(p.cast<float>(), static_cast<float>(radius_m), near);
+    for (const Neighbor& n : near) {
+      out.points.push_back(impl_->mesh.vertices[n.index].cast<double>());
+      out.axial_sigma_m.push_back(impl_->voxel / std::sqrt(12.0));
+      out.view.push_back(0);
+    }
+  }
+  return out;
+}
+
+}  // namespace locard::forensics

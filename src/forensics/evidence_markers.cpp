@@ -1,0 +1,165 @@
+#include <locard/forensics/evidence_markers.hpp>
+
+#include "forensics/json_util.hpp"
+
+#include <locard/core/atomic_file.hpp>
+#include <locard/core/error.hpp>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <fstream>
+
+namespace locard::forensics {
+namespace {
+
+using nlohmann::json;
+
+std::string csv_field(const std::string& s) {
+  if (s.find_first_of(",\"\n") == std::string::npos) return s;
+  std::string q = "\"";
+  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return q + "\"";
+}
+
+}  // namespace
+
+Eigen::Vector3d CaseFrame::to_local(const Eigen::Vector3d& world) const {
+  return axes.transpose() * (world - origin);
+}
+
+Eigen::Vector3d CaseFrame::to_world(const Eigen::Vector3d& local) const {
+  return origin + axes * local;
+}
+
+CaseFrame CaseFrame::from_points(const Eigen::Vector3d& origin, const Eigen::Vector3d& on_x_axis,
+                                 const Eigen::Vector3d& in_xy_plane, std::string description) {
+  const Eigen::Vector3d x = on_x_axis - origin;
+  if (x.norm() < 1e-6) throw InputError("case frame: the x-axis point coincides with the origin");
+  const Eigen::Vector3d ex = x.normalized();
+  Eigen::Vector3d y = in_xy_plane - origin;
+  y -= y.dot(ex) * ex;
+  if (y.norm() < 1e-6 * std::max(1.0, (in_xy_plane - origin).norm()))
+    throw InputError("case frame: the three points are collinear; the xy plane is undefined");
+  const Eigen::Vector3d ey = y.normalized();
+  CaseFrame f;
+  f.origin = origin;
+  f.axes.col(0) = ex;
+  f.axes.col(1) = ey;
+  f.axes.col(2) = ex.cross(ey);
+  f.description = std::move(description);
+  return f;
+}
+
+const EvidenceMarker& MarkerSet::add(EvidenceMarker marker) {
+  if (marker.label.empty()) throw InputError("an evidence marker needs a label");
+  for (const EvidenceMarker& m : markers)
+    if (m.label == marker.label)
+      throw InputError(fmt::format("marker label '{}' is already used by marker {}", marker.label,
+                                   m.number));
+  if (!marker.world.allFinite()) throw InputError("marker coordinates must be finite");
+  int highest = 0;
+  for (const EvidenceMarker& m : markers) highest = std::max(highest, m.number);
+  marker.number = highest + 1;
+  if (marker.created.empty()) marker.created = utc_now_iso8601();
+  markers.push_back(std::move(marker));
+  return markers.back();
+}
+
+const EvidenceMarker* MarkerSet::find(const std::string& name) const {
+  std::string key = name;
+  if (key.rfind("marker:", 0) == 0) key = key.substr(7);
+  for (const EvidenceMarker& m : markers)
+    if (m.label == name || std::to_string(m.number) == key) return &m;
+  return nullptr;
+}
+
+bool MarkerSet::remove(int number) {
+  const auto it = std::find_if(markers.begin(), markers.end(),
+                               [&](const EvidenceMarker& m) { return m.number == number; });
+  if (it == markers.end()) return false;
+  markers.erase(it);
+  return true;
+}
+
+MarkerSet read_markers(const std::filesystem::path& path) {
+  MarkerSet set;
+  if (!std::filesystem::exists(path)) return set;
+  std::ifstream in(path);
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::parse_error& e) {
+    throw_input_error(path, fmt::format("not valid JSON: {}", e.what()));
+  }
+  const std::string where = path.string();
+  try {
+    const json& f = j.at("frame");
+    set.frame.origin = json_vec3(f.at("origin"), where + ": frame.origin");
+    set.frame.axes.col(0) = json_vec3(f.at("x_axis"), where + ": frame.x_axis");
+    set.frame.axes.col(1) = json_vec3(f.at("y_axis"), where + ": frame.y_axis");
+    set.frame.axes.col(2) = json_vec3(f.at("z_axis"), where + ": frame.z_axis");
+    set.frame.description = f.value("description", "");
+    for (const json& m : j.at("markers")) {
+      EvidenceMarker e;
+      e.number = m.at("number").get<int>();
+      e.label = m.at("label").get<std::string>();
+      e.note = m.value("note", "");
+      e.world = json_vec3(m.at("world"), fmt::format("{}: marker {}", where, e.number));
+      e.snapped = m.value("snapped", false);
+      e.expanded_uncertainty_m = m.value("expanded_uncertainty_m", 0.0);
+      e.created = m.value("created", "");
+      set.markers.push_back(std::move(e));
+    }
+  } catch (const json::exception& e) {
+    throw_input_error(path, fmt::format("malformed markers file: {}", e.what()));
+  }
+  if (!(set.frame.axes.transpose() * set.frame.axes).isApprox(Eigen::Matrix3d::Identity(), 1e-6))
+    throw_input_error(path, "frame axes are not orthonormal");
+  return set;
+}
+
+std::string markers_csv(const MarkerSet& set) {
+  std::string out = "number,label,x,y,z,world_x,world_y,world_z,expanded_uncertainty_m,note\n";
+  for (const EvidenceMarker& m : set.markers) {
+    const Eigen::Vector3d l = set.frame.to_local(m.world);
+    out += fmt::format("{},{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{}\n", m.number,
+                       csv_field(m.label), l.x(), l.y(), l.z(), m.world.x(), m.world.y(),
+                       m.world.z(), m.expanded_uncertainty_m, csv_field(m.note));
+  }
+  return out;
+}
+
+void write_markers(const std::filesystem::path& path, const MarkerSet& set) {
+  json markers = json::array();
+  for (const EvidenceMarker& m : set.markers)
+    markers.push_back({{"number", m.number},
+                       {"label", m.label},
+                       {"note", m.note},
+                       {"world", vec_json(m.world)},
+                       {"local", vec_json(set.frame.to_local(m.world))},
+                       {"snapped", m.snapped},
+                       {"expanded_uncertainty_m", m.expanded_uncertainty_m},
+                       {"created", m.created}});
+  const json j = {{"frame",
+                   {{"origin", vec_json(set.frame.origin)},
+                    {"x_axis", vec_json(set.frame.axes.col(0))},
+                    {"y_axis", vec_json(set.frame.axes.col(1))},
+                    {"z_axis", vec_json(set.frame.axes.col(2))},
+                    {"description", set.frame.description}}},
+                  {"markers", markers}};
+  std::filesystem::create_directories(path.parent_path());
+  {
+    AtomicFile f(path, false);
+    f.stream() << j.dump(1) << '\n';
+    f.commit();
+  }
+  AtomicFile f(std::filesystem::path(path).replace_extension(".csv"), false);
+  f.stream() << markers_csv(set);
+  f.commit();
+}
+
+}  // namespace locard::forensics

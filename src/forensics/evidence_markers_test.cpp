@@ -1,0 +1,83 @@
+// Evidence markers: numbering, labels, the chosen case frame, JSON/CSV round trip.
+#include <locard/forensics/evidence_markers.hpp>
+
+#include <locard/core/error.hpp>
+
+#include <gtest/gtest.h>
+
+#include "test_support.hpp"
+
+#include <fstream>
+
+namespace locard::forensics {
+namespace {
+
+using Eigen::Vector3d;
+
+TEST(CaseFrame, FromThreePointsIsRightHandedAndOrthonormal) {
+  // Origin at a room corner, x along the south wall, y into the room.
+  const CaseFrame f = CaseFrame::from_points(Vector3d(-1.92, -2.0, 0), Vector3d(1.92, -2.0, 0),
+                                             Vector3d(-1.92, 2.0, 0.5), "SW corner");
+  EXPECT_TRUE((f.axes.transpose() * f.axes).isApprox(Eigen::Matrix3d::Identity(), 1e-12));
+  EXPECT_NEAR(f.axes.determinant(), 1.0, 1e-12);
+  const Vector3d local = f.to_local(Vector3d(0, 0, 1));
+  EXPECT_NEAR(local.x(), 1.92, 1e-12);
+  EXPECT_NEAR(local.y(), 2.0, 1e-12);
+  EXPECT_NEAR(local.z(), 1.0, 1e-12);
+  EXPECT_TRUE(f.to_world(local).isApprox(Vector3d(0, 0, 1), 1e-12));
+  EXPECT_THROW(CaseFrame::from_points(Vector3d::Zero(), Vector3d::UnitX(), 2 * Vector3d::UnitX(), ""),
+               InputError);
+  EXPECT_THROW(CaseFrame::from_points(Vector3d::Zero(), Vector3d::Zero(), Vector3d::UnitY(), ""),
+               InputError);
+}
+
+TEST(MarkerSet, NumbersAreNeverReusedAndLabelsUnique) {
+  MarkerSet s;
+  EvidenceMarker m;
+  m.label = "cartridge case";
+  m.world = Vector3d(0.1, 0.2, 0.0);
+  EXPECT_EQ(s.add(m).number, 1);
+  m.label = "blood stain";
+  EXPECT_EQ(s.add(m).number, 2);
+  EXPECT_THROW(s.add(m), InputError);  // duplicate label
+  m.label = "";
+  EXPECT_THROW(s.add(m), InputError);
+  EXPECT_TRUE(s.remove(2));
+  EXPECT_FALSE(s.remove(2));
+  m.label = "bullet hole";
+  EXPECT_EQ(s.add(m).number, 2);  // one past the highest left
+  ASSERT_NE(s.find("marker:1"), nullptr);
+  EXPECT_EQ(s.find("bullet hole")->number, 2);
+  EXPECT_EQ(s.find("7"), nullptr);
+}
+
+TEST(MarkerSet, JsonAndCsvRoundTrip) {
+  const auto dir = test::scratch_dir();
+  MarkerSet s;
+  s.frame = CaseFrame::from_points(Vector3d(1, 0, 0), Vector3d(1, 1, 0), Vector3d(0, 0, 0), "door");
+  EvidenceMarker m;
+  m.label = "knife, kitchen";
+  m.note = "under the \"table\"";
+  m.world = Vector3d(1.5, 0.5, 0.25);
+  m.expanded_uncertainty_m = 0.004;
+  s.add(m);
+  write_markers(dir / "evidence" / "markers.json", s);
+  const MarkerSet back = read_markers(dir / "evidence" / "markers.json");
+  ASSERT_EQ(back.markers.size(), 1u);
+  EXPECT_EQ(back.markers[0].label, "knife, kitchen");
+  EXPECT_TRUE(back.markers[0].world.isApprox(m.world));
+  EXPECT_TRUE(back.frame.axes.isApprox(s.frame.axes));
+  const std::string csv = markers_csv(back);
+  // x along world +y from (1,0,0): local (0.5, 0.5, 0.25).
+  EXPECT_NE(csv.find("1,\"knife, kitchen\",0.5000,0.5000,0.2500,1.5000,0.5000,0.2500,0.0040,"
+                     "\"under the \"\"table\"\"\""),
+            std::string::npos)
+      << csv;
+  EXPECT_TRUE(std::filesystem::exists(dir / "evidence" / "markers.csv"));
+  EXPECT_TRUE(read_markers(dir / "none.json").markers.empty());
+  { std::ofstream(dir / "bad.json") << "{\"frame\": 3}"; }
+  EXPECT_THROW(read_markers(dir / "bad.json"), InputError);
+}
+
+}  // namespace
+}  // namespace locard::forensics

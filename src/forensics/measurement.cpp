@@ -1,0 +1,590 @@
+#include <locard/forensics/measurement.hpp>
+
+#include "forensics/json_util.hpp"
+
+#include <locard/core/atomic_file.hpp>
+#include <locard/core/error.hpp>
+#include <locard/forensics/case_folder.hpp>
+#include <locard/sim/raycaster.hpp>
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/QR>
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <numeric>
+#include <random>
+#include <set>
+
+namespace locard::forensics {
+namespace {
+
+using Eigen::Matrix3d;
+using Eigen::Vector3d;
+
+struct Plane {
+  Vector3d normal = Vector3d::UnitZ();  // unit
+  double d = 0.0;                       // normal . x + d = 0
+  std::vector<std::uint32_t> inliers;   // indices into LocalPoints
+  double rms = 0.0;
+  double distance(const Vector3d& x) const { return normal.dot(x) + d; }
+};
+
+// Least-squares plane through the given points (smallest principal axis of their scatter).
+Plane refit(const std::vector<Vector3d>& pts, const std::vector<std::uint32_t>& ids) {
+  Vector3d mean = Vector3d::Zero();
+  for (auto i : ids) mean += pts[i];
+  mean /= static_cast<double>(ids.size());
+  Matrix3d C = Matrix3d::Zero();
+  for (auto i : ids) C += (pts[i] - mean) * (pts[i] - mean).transpose();
+  Eigen::SelfAdjointEigenSolver<Matrix3d> es(C);
+  Plane p;
+  p.normal = es.eigenvectors().col(0).normalized();
+  p.d = -p.normal.dot(mean);
+  p.inliers = ids;
+  double ss = 0;
+  for (auto i : ids) ss += std::pow(p.distance(pts[i]), 2);
+  p.rms = std::sqrt(ss / static_cast<double>(ids.size()));
+  return p;
+}
+
+// Sequential RANSAC: up to `max_planes` planes, largest first, each refit by least squares.
+// Seeded: the same points give the same planes.
+std::vector<Plane> find_planes(const LocalPoints& L, double threshold, std::size_t min_points,
+                               int max_planes = 4) {
+  std::vector<Plane> planes;
+  std::vector<std::uint32_t> remaining(L.points.size());
+  std::iota(remaining.begin(), remaining.end(), 0u);
+  std::mt19937_64 rng(20240607);
+  while (static_cast<int>(planes.size()) < max_planes && remaining.size() >= min_points) {
+    std::uniform_int_distribution<std::size_t> pick(0, remaining.size() - 1);
+    std::size_t best_count = 0;
+    Vector3d best_n = Vector3d::UnitZ();
+    double best_d = 0;
+    for (int it = 0; it < 300; ++it) {
+      const Vector3d& a = L.points[remaining[pick(rng)]];
+      const Vector3d& b = L.points[remaining[pick(rng)]];
+      const Vector3d& c = L.points[remaining[pick(rng)]];
+      Vector3d n = (b - a).cross(c - a);
+      if (n.norm() < 1e-9) continue;
+      n.normalize();
+      const double d = -n.dot(a);
+      std::size_t count = 0;
+      for (auto i : remaining) count += std::abs(n.dot(L.points[i]) + d) <= threshold;
+      if (count > best_count) {
+        best_count = count;
+        best_n = n;
+        best_d = d;
+      }
+    }
+    if (best_count < min_points) break;
+    std::vector<std::uint32_t> in;
+    for (auto i : remaining)
+      if (std::abs(best_n.dot(L.points[i]) + best_d) <= threshold) in.push_back(i);
+    Plane p = refit(L.points, in);
+    for (int round = 0; round < 2; ++round) {  // re-select inliers around the refit plane
+      std::vector<std::uint32_t> again;
+      for (auto i : remaining)
+        if (std::abs(p.distance(L.points[i])) <= threshold) again.push_back(i);
+      if (again.size() < min_points) break;
+      p = refit(L.points, again);
+    }
+    if (p.inliers.size() < min_points) break;
+    std::set<std::uint32_t> used(p.inliers.begin(), p.inliers.end());
+    std::vector<std::uint32_t> rest;
+    for (auto i : remaining)
+      if (!used.count(i)) rest.push_back(i);
+    remaining.swap(rest);
+    planes.push_back(std::move(p));
+  }
+  return planes;
+}
+
+double median(std::vector<double> v) {
+  if (v.empty()) return 0.0;
+  const std::size_t m = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(m), v.end());
+  double hi = v[m];
+  if (v.size() % 2) return hi;
+  const double lo = *std::max_element(v.begin(), v.begin() + static_cast<long>(m));
+  return 0.5 * (lo + hi);
+}
+
+// Offset variance of a plane: the fit's scatter over its points plus the sensor's per-view
+// error, which does not average out within one view (a view's depth bias moves all its points).
+double plane_offset_variance(const Plane& p, const LocalPoints& L) {
+  std::set<std::uint32_t> views;
+  double axial2 = 0.0;
+  for (auto i : p.inliers) {
+    views.insert(L.view[i]);
+    axial2 += L.axial_sigma_m[i] * L.axial_sigma_m[i];
+  }
+  const double n = static_cast<double>(p.inliers.size());
+  const double nv = static_cast<double>(std::max<std::size_t>(views.size(), 1));
+  return p.rms * p.rms / n + (axial2 / n) / nv;
+}
+
+// Mean pose covariance of the observing views propagated to p (fully correlated).
+Matrix3d pose_covariance_at(const CaseModel& model, const Vector3d& p,
+                            const std::vector<std::uint32_t>& views) {
+  Matrix3d out = Matrix3d::Zero();
+  if (views.empty()) return out;
+  Eigen::Matrix<double, 3, 6> J;
+  J.block<3, 3>(0, 0) << 0, p.z(), -p.y(), -p.z(), 0, p.x(), p.y(), -p.x(), 0;  // -[p]x
+  J.block<3, 3>(0, 3) = Matrix3d::Identity();
+  for (auto k : views) out += J * model.views()[k].covariance * J.transpose();
+  return out / static_cast<double>(views.size());
+}
+
+Vector3d nearest_on_mesh(const CaseModel& model, const Vector3d& p) {
+  // Cast along the six axis directions and the direction to the nearest vertex; keep the
+  // closest hit. Good enough for a fallback on a mesh with no plane around the point.
+  Vector3d best = p;
+  double best_d = std::numeric_limits<double>::infinity();
+  const Vector3d dirs[6] = {Vector3d::UnitX(), -Vector3d::UnitX(), Vector3d::UnitY(),
+                            -Vector3d::UnitY(), Vector3d::UnitZ(), -Vector3d::UnitZ()};
+  for (const Vector3d& d : dirs) {
+    const sim::RayHit h = model.raycaster().intersect(p.cast<float>(), d.cast<float>(), 0.0f, 0.1f);
+    if (h.hit() && h.t < best_d) {
+      best_d = h.t;
+      best = p + static_cast<double>(h.t) * d;
+    }
+  }
+  return best;
+}
+
+}  // namespace
+
+SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
+                        const std::optional<Vector3d>& outward, const SnapOptions& options) {
+  if (!point.allFinite()) throw InputError("measurement point has non-finite coordinates");
+  const double off = model.distance_to_mesh(point);
+  if (off > options.max_snap_distance_m)
+    throw InputError(fmt::format(
+        "point ({:.4f}, {:.4f}, {:.4f}) is off the model: the nearest surface is {:.3f} m away "
+        "(at most {:.3f} m allowed); pick a point on a surface",
+        point.x(), point.y(), point.z(), off, options.max_snap_distance_m));
+  SnappedPoint s;
+  s.given = point;
+  s.snapped = point;
+  const LocalPoints L = model.local_points(point, options.search_radius_m);
+  s.points = L.points.size();
+  const std::vector<std::uint32_t> seen = model.observing_views(point);
+  s.views = seen.size();
+  const Matrix3d pose_cov = pose_covariance_at(model, point, seen);
+  std::vector<double> sig(L.axial_sigma_m);
+  const double threshold = std::max(options.plane_inlier_m, 2.5 * median(sig));
+  const std::vector<Plane> planes = find_planes(L, threshold, options.min_plane_points);
+  s.planes = planes.size();
+  if (planes.empty()) {
+    s.snapped = nearest_on_mesh(model, point);
+    s.feature = "surface";
+    const double v = model.model_voxel_m();
+    s.covariance = Matrix3d::Identity() * (v * v / 12.0) + pose_cov;
+    return s;
+  }
+  Matrix3d cov = pose_cov;
+  if (!outward) {
+    const Plane* nearest = &planes[0];
+    for (const Plane& p : planes)
+      if (std::abs(p.distance(point)) < std::abs(nearest->distance(point))) nearest = &p;
+    s.snapped = point - nearest->distance(point) * nearest->normal;
+    s.feature = "face";
+    cov += nearest->normal * nearest->normal.transpose() * plane_offset_variance(*nearest, L);
+    s.covariance = cov;
+    return s;
+  }
+  const Vector3d o = outward->normalized();
+  const double cos_facing = std::cos(35.0 * M_PI / 180.0);
+  const double on_point = std::max(0.006, threshold);  // a side plane must pass through p
+  std::vector<const Plane*> side;
+  const Plane* facing = nullptr;
+  double facing_t = 0.0;
+  for (const Plane& p : planes) {
+    const double c = p.normal.dot(o);
+    if (std::abs(c) >= cos_facing) {
+      const double t = -p.distance(point) / c;
+      if (std::abs(t) > options.max_snap_distance_m) continue;
+      // It must have points where the line through p along o crosses it.
+      const Vector3d x = point + t * o;
+      std::size_t near_line = 0;
+      for (auto i : p.inliers) near_line += (L.points[i] - x).norm() <= 0.015;
+      if (near_line < 5) continue;
+      if (!facing || p.inliers.size() > facing->inliers.size()) {
+        facing = &p;
+        facing_t = t;
+      }
+    } else if (std::abs(c) < 0.5 && std::abs(p.distance(point)) <= on_point) {
+      side.push_back(&p);
+    }
+  }
+  Vector3d q = point;
+  // Side planes: move perpendicular to o onto them (minimum-norm solution).
+  if (!side.empty()) {
+    Eigen::MatrixXd A(static_cast<long>(side.size()) + 1, 3);
+    Eigen::VectorXd r(static_cast<long>(side.size()) + 1);
+    for (std::size_t i = 0; i < side.size(); ++i) {
+      A.row(static_cast<long>(i)) = side[i]->normal.transpose();
+      r[static_cast<long>(i)] = -side[i]->distance(q);
+    }
+    A.row(static_cast<long>(side.size())) = o.transpose();
+    r[static_cast<long>(side.size())] = 0.0;
+    const Vector3d delta = A.completeOrthogonalDecomposition().solve(r);
+    q += delta;
+    for (const Plane* p : side)
+      cov += p->normal * p->normal.transpose() * plane_offset_variance(*p, L);
+  }
+  if (facing) {
+    const double t = -facing->distance(q) / facing->normal.dot(o);
+    q += t * o;
+    (void)facing_t;
+    const double c = facing->normal.dot(o);
+    cov += o * o.transpose() * plane_offset_variance(*facing, L) / (c * c);
+    s.feature = side.empty() ? "face" : (side.size() == 1 ? "edge" : "corner");
+  } else if (!side.empty()) {
+    // Where do the side planes' points end along o, near the line through q? Per view: its
+    // outermost point plus half its sampling step (the expected gap between the last sample
+    // and the true edge); the median over views is the edge.
+    const CameraIntrinsics& K = model.intrinsics();
+    std::map<std::uint32_t, std::pair<double, double>> per_view;  // view -> (max s, step)
+    std::map<std::uint32_t, std::size_t> counts;
+    double farthest = -std::numeric_limits<double>::infinity();
+    for (const Plane* p : side)
+      for (auto i : p->inliers) {
+        const Vector3d rel = L.points[i] - q;
+        const double s_along = rel.dot(o);
+        const double lateral = (rel - s_along * o).norm();
+        const ViewRecord& view = model.views().empty() ? ViewRecord{} : model.views()[L.view[i]];
+        const Vector3d ray = (L.points[i] - view.T_world_camera.translation());
+        const double range = ray.norm();
+        const double footprint_dir = std::max(0.25, std::sqrt(std::max(0.0, 1.0 - std::pow(ray.normalized().dot(o), 2))));
+        const double step = L.from_raw_depth
+                                ? range / K.fx / std::max(0.25, std::abs(ray.normalized().dot(p->normal))) * footprint_dir
+                                : model.model_voxel_m();
+        if (lateral > std::max(0.006, 1.5 * step)) continue;
+        farthest = std::max(farthest, s_along);
+        auto& entry = per_view[L.view[i]];
+        if (counts[L.view[i]]++ == 0 || s_along > entry.first) entry = {s_along, step};
+      }
+    if (farthest < options.edge_margin_m && !per_view.empty()) {
+      std::vector<double> edges, steps;
+      for (const auto& [view, e] : per_view) {
+        if (counts[view] < 3) continue;
+        edges.push_back(e.first + 0.5 * e.second);
+        steps.push_back(e.second);
+      }
+      if (edges.empty())
+        for (const auto& [view, e] : per_view) {
+          edges.push_back(e.first + 0.5 * e.second);
+          steps.push_back(e.second);
+        }
+      const double edge = median(edges);
+      q += edge * o;
+      // Spread of the per-view edges (standard error of the median) and the residual
+      // sampling uncertainty of one view's edge (uniform over a step: step / sqrt(12)), plus
+      // the lateral noise of the last sample.
+      std::vector<double> dev;
+      for (double e : edges) dev.push_back(std::abs(e - edge));
+      const double mad_sigma = 1.4826 * median(dev);
+      const double n = static_cast<double>(edges.size());
+      const double step = median(steps);
+      const double lateral = model.noise().lateral_sigma_m(1.0);
+      const double var = mad_sigma * mad_sigma * (M_PI / 2.0) / n + step * step / 12.0 +
+                         lateral * lateral;
+      cov += o * o.transpose() * var;
+      s.feature = side.size() == 1 ? "edge" : "corner";
+    } else {
+      s.feature = "face";  // the surface goes on past the point: it keeps its place along o
+    }
+  } else {
+    s.feature = "face";
+  }
+  s.snapped = q;
+  s.covariance = cov;
+  return s;
+}
+
+PointToPointMeasurement measure_point_to_point(const CaseModel& model, const Vector3d& a,
+                                               const Vector3d& b, const SnapOptions& options) {
+  const Vector3d ab = b - a;
+  if (ab.norm() < 1e-6) throw InputError("the two measurement points coincide");
+  const Vector3d d = ab.normalized();
+  PointToPointMeasurement m;
+  m.a = snap_point(model, a, -d, options);
+  m.b = snap_point(model, b, d, options);
+  const Vector3d diff = m.b.snapped - m.a.snapped;
+  m.distance_m = diff.norm();
+  const Vector3d u = diff.normalized();
+  const double var = u.dot(m.a.covariance * u) + u.dot(m.b.covariance * u);
+  m.standard_uncertainty_m = std::sqrt(std::max(0.0, var));
+  m.coverage_factor = options.coverage_factor;
+  m.expanded_uncertainty_m = m.coverage_factor * m.standard_uncertainty_m;
+  return m;
+}
+
+PlaneEstimate fit_plane_at(const CaseModel& model, const Vector3d& on_plane, double radius_m,
+                           const SnapOptions& options) {
+  const double off = model.distance_to_mesh(on_plane);
+  if (off > options.max_snap_distance_m)
+    throw InputError(fmt::format("plane point ({:.4f}, {:.4f}, {:.4f}) is off the model: the "
+                                 "nearest surface is {:.3f} m away",
+                                 on_plane.x(), on_plane.y(), on_plane.z(), off));
+  const LocalPoints L = model.local_points(on_plane, radius_m);
+  const double threshold = std::max(options.plane_inlier_m, 2.5 * median(L.axial_sigma_m));
+  const std::vector<Plane> planes = find_planes(L, threshold, options.min_plane_points, 1);
+  if (planes.empty())
+    throw InputError(fmt::format("no plane found around ({:.4f}, {:.4f}, {:.4f}) within {:.3f} m",
+                                 on_plane.x(), on_plane.y(), on_plane.z(), radius_m));
+  const Plane& p = planes[0];
+  PlaneEstimate e;
+  e.normal = p.normal;
+  e.point = on_plane - p.distance(on_plane) * p.normal;
+  e.rms_m = p.rms;
+  e.points = p.inliers.size();
+  const Matrix3d pose = pose_covariance_at(model, e.point, model.observing_views(e.point));
+  e.offset_sigma_m = std::sqrt(plane_offset_variance(p, L) + p.normal.dot(pose * p.normal));
+  // Tilt of a least-squares plane: sigma ~ rms / sqrt(sum of squared in-plane distances).
+  double spread = 0.0;
+  for (auto i : p.inliers) {
+    const Vector3d r = L.points[i] - e.point;
+    spread += (r - r.dot(p.normal) * p.normal).squaredNorm() / 2.0;
+  }
+  e.normal_sigma_rad = spread > 0 ? p.rms / std::sqrt(spread) : 0.0;
+  return e;
+}
+
+PointToPlaneMeasurement measure_point_to_plane(const CaseModel& model, const Vector3d& point,
+                                               const Vector3d& on_plane, double plane_radius_m,
+                                               const SnapOptions& options) {
+  PointToPlaneMeasurement m;
+  m.plane = fit_plane_at(model, on_plane, plane_radius_m, options);
+  m.point = snap_point(model, point, std::nullopt, options);
+  m.distance_m = m.plane.normal.dot(m.point.snapped - m.plane.point);
+  const double lever = (m.point.snapped - m.plane.point).norm() * m.plane.normal_sigma_rad;
+  const double var = m.plane.normal.dot(m.point.covariance * m.plane.normal) +
+                     m.plane.offset_sigma_m * m.plane.offset_sigma_m + lever * lever;
+  m.standard_uncertainty_m = std::sqrt(var);
+  m.expanded_uncertainty_m = options.coverage_factor * m.standard_uncertainty_m;
+  return m;
+}
+
+PlaneAngleMeasurement measure_plane_angle(const CaseModel& model, const Vector3d& on_first,
+                                          const Vector3d& on_second, double plane_radius_m,
+                                          const SnapOptions& options) {
+  PlaneAngleMeasurement m;
+  m.first = fit_plane_at(model, on_first, plane_radius_m, options);
+  m.second = fit_plane_at(model, on_second, plane_radius_m, options);
+  const double c = std::clamp(std::abs(m.first.normal.dot(m.second.normal)), 0.0, 1.0);
+  m.angle_deg = std::acos(c) * 180.0 / M_PI;
+  m.standard_uncertainty_deg =
+      std::hypot(m.first.normal_sigma_rad, m.second.normal_sigma_rad) * 180.0 / M_PI;
+  m.expanded_uncertainty_deg = options.coverage_factor * m.standard_uncertainty_deg;
+  return m;
+}
+
+std::vector<ReferenceMeasurement> read_reference_measurements(
+    const std::filesystem::path& path,
+    const std::function<std::optional<Vector3d>(const std::string&)>& marker_lookup) {
+  std::ifstream in(path);
+  if (!in) throw_input_error(path, "cannot read the reference file");
+  nlohmann::json j;
+  try {
+    j = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw_input_error(path, fmt::format("not valid JSON: {}", e.what()));
+  }
+  if (!j.is_object() || !j.contains("measurements") || !j["measurements"].is_array())
+    throw_input_error(path, "expected {\"measurements\": [{\"name\", \"a\", \"b\", "
+                            "\"distance_m\"}, ...]}");
+  static const std::set<std::string> known = {"name", "a", "b", "distance_m", "source", "note"};
+  std::vector<ReferenceMeasurement> out;
+  std::set<std::string> names;
+  std::size_t index = 0;
+  for (const auto& m : j["measurements"]) {
+    const std::string where = fmt::format("{}: measurements[{}]", path.string(), index++);
+    if (!m.is_object()) throw InputError(where + ": expected an object");
+    for (const auto& [key, value] : m.items())
+      if (!known.count(key))
+        throw InputError(fmt::format("{}: unknown key '{}' (expected name, a, b, distance_m, "
+                                     "source, note)",
+                                     where, key));
+    if (!m.contains("name") || !m["name"].is_string() || m["name"].get<std::string>().empty())
+      throw InputError(where + ": \"name\" (a non-empty string) is required");
+    ReferenceMeasurement r;
+    r.name = m["name"].get<std::string>();
+    if (!names.insert(r.name).second)
+      throw InputError(fmt::format("{} \"{}\": duplicate name", where, r.name));
+    const std::string named = fmt::format("{} \"{}\"", where, r.name);
+    for (const char* key : {"a", "b"}) {
+      if (!m.contains(key)) throw InputError(fmt::format("{}: \"{}\" is required", named, key));
+      Vector3d v;
+      if (m[key].is_string()) {
+        const std::string marker = m[key].get<std::string>();
+        const std::optional<Vector3d> found =
+            marker_lookup ? marker_lookup(marker) : std::optional<Vector3d>{};
+        if (!found)
+          throw InputError(fmt::format("{}: \"{}\" names marker '{}', which the case does not "
+                                       "have (see evidence/markers.csv)",
+                                       named, key, marker));
+        v = *found;
+      } else {
+        v = json_vec3(m[key], fmt::format("{}: \"{}\"", named, key));
+      }
+      (key[0] == 'a' ? r.a : r.b) = v;
+    }
+    if (!m.contains("distance_m") || !m["distance_m"].is_number() ||
+        !(m["distance_m"].get<double>() > 0))
+      throw InputError(named + ": \"distance_m\" (the tape value, a positive number) is required");
+    r.true_distance_m = m["distance_m"].get<double>();
+    out.push_back(r);
+  }
+  if (out.empty()) throw_input_error(path, "no measurements listed");
+  return out;
+}
+
+std::vector<TableRow> compare_with_reference(const CaseModel& model,
+                                             const std::vector<ReferenceMeasurement>& reference,
+                                             const SnapOptions& options) {
+  std::vector<TableRow> rows;
+  for (const ReferenceMeasurement& r : reference) {
+    TableRow row;
+    row.name = r.name;
+    row.real_m = r.true_distance_m;
+    try {
+      row.detail = measure_point_to_point(model, r.a, r.b, options);
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("reference measurement \"{}\": {}", r.name, e.what()));
+    }
+    row.model_m = row.detail.distance_m;
+    row.error_m = row.model_m - row.real_m;
+    row.expanded_uncertainty_m = row.detail.expanded_uncertainty_m;
+    row.within_uncertainty = std::abs(row.error_m) <= row.expanded_uncertainty_m;
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+}  // namespace locard::forensics
+
+namespace locard::forensics {
+namespace {
+
+nlohmann::json snapped_json(const SnappedPoint& s) {
+  return {{"given", vec_json(s.given)},
+          {"snapped", vec_json(s.snapped)},
+          {"feature", s.feature},
+          {"views", s.views},
+          {"points", s.points},
+          {"planes", s.planes},
+          {"standard_uncertainty_m", std::sqrt(std::max(0.0, s.covariance.trace()))}};
+}
+
+nlohmann::json p2p_json(const PointToPointMeasurement& m) {
+  return {{"kind", "point_to_point"},
+          {"a", snapped_json(m.a)},
+          {"b", snapped_json(m.b)},
+          {"distance_m", m.distance_m},
+          {"standard_uncertainty_m", m.standard_uncertainty_m},
+          {"expanded_uncertainty_m", m.expanded_uncertainty_m},
+          {"coverage_factor", m.coverage_factor}};
+}
+
+nlohmann::json plane_json(const PlaneEstimate& p) {
+  return {{"point", vec_json(p.point)},      {"normal", vec_json(p.normal)},
+          {"rms_m", p.rms_m},                {"points", p.points},
+          {"offset_sigma_m", p.offset_sigma_m}, {"normal_sigma_deg", p.normal_sigma_rad * 180.0 / M_PI}};
+}
+
+std::filesystem::path append_json(const CaseFolder& folder, const std::string& name,
+                                  nlohmann::json entry) {
+  const std::filesystem::path rel = "measurements/measurements.json";
+  const std::filesystem::path full = folder.path(rel);
+  nlohmann::json all = {{"measurements", nlohmann::json::array()}};
+  if (std::filesystem::exists(full)) {
+    std::ifstream in(full);
+    try {
+      all = nlohmann::json::parse(in);
+    } catch (const nlohmann::json::parse_error& e) {
+      throw_input_error(full, fmt::format("not valid JSON: {}", e.what()));
+    }
+  }
+  if (name.empty()) throw InputError("a measurement needs a name");
+  entry["name"] = name;
+  entry["created"] = utc_now_iso8601();
+  all["measurements"].push_back(entry);
+  AtomicFile f(full, false);
+  f.stream() << all.dump(1) << '\n';
+  f.commit();
+  return rel;
+}
+
+}  // namespace
+
+std::string measurement_json(const PointToPointMeasurement& m) { return p2p_json(m).dump(); }
+
+std::filesystem::path append_measurement(const CaseFolder& folder, const std::string& name,
+                                         const PointToPointMeasurement& m) {
+  return append_json(folder, name, p2p_json(m));
+}
+
+std::filesystem::path append_measurement(const CaseFolder& folder, const std::string& name,
+                                         const PointToPlaneMeasurement& m) {
+  return append_json(folder, name,
+                     {{"kind", "point_to_plane"},
+                      {"point", snapped_json(m.point)},
+                      {"plane", plane_json(m.plane)},
+                      {"distance_m", m.distance_m},
+                      {"standard_uncertainty_m", m.standard_uncertainty_m},
+                      {"expanded_uncertainty_m", m.expanded_uncertainty_m}});
+}
+
+std::filesystem::path append_measurement(const CaseFolder& folder, const std::string& name,
+                                         const PlaneAngleMeasurement& m) {
+  return append_json(folder, name,
+                     {{"kind", "plane_angle"},
+                      {"first", plane_json(m.first)},
+                      {"second", plane_json(m.second)},
+                      {"angle_deg", m.angle_deg},
+                      {"standard_uncertainty_deg", m.standard_uncertainty_deg},
+                      {"expanded_uncertainty_deg", m.expanded_uncertainty_deg}});
+}
+
+void write_measurement_table(const CaseFolder& folder, const std::vector<TableRow>& rows) {
+  nlohmann::json j = {{"coverage_factor", rows.empty() ? 2.0 : rows[0].detail.coverage_factor},
+                      {"units", "m"},
+                      {"rows", nlohmann::json::array()}};
+  std::string csv = "name,real_m,model_m,error_m,expanded_uncertainty_m,within_uncertainty,"
+                    "a_feature,b_feature\n";
+  for (const TableRow& r : rows) {
+    j["rows"].push_back({{"name", r.name},
+                         {"real_m", r.real_m},
+                         {"model_m", r.model_m},
+                         {"error_m", r.error_m},
+                         {"expanded_uncertainty_m", r.expanded_uncertainty_m},
+                         {"within_uncertainty", r.within_uncertainty},
+                         {"measurement", p2p_json(r.detail)}});
+    std::string name = r.name;
+    if (name.find_first_of(",\"") != std::string::npos) {
+      std::string q = "\"";
+      for (char c : name) q += c == '"' ? std::string("\"\"") : std::string(1, c);
+      name = q + "\"";
+    }
+    csv += fmt::format("{},{:.5f},{:.5f},{:.5f},{:.5f},{},{},{}\n", name, r.real_m, r.model_m,
+                       r.error_m, r.expanded_uncertainty_m, r.within_uncertainty ? "yes" : "no",
+                       r.detail.a.feature, r.detail.b.feature);
+  }
+  {
+    AtomicFile f(folder.path("measurements/table.json"), false);
+    f.stream() << j.dump(1) << '\n';
+    f.commit();
+  }
+  AtomicFile f(folder.path("measurements/table.csv"), false);
+  f.stream() << csv;
+  f.commit();
+}
+
+}  // namespace locard::forensics

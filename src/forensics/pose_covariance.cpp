@@ -1,0 +1,102 @@
+#include <locard/forensics/pose_covariance.hpp>
+
+#include <locard/core/error.hpp>
+
+#include <Eigen/Geometry>
+#include <Eigen/SparseCholesky>
+
+#include <fmt/format.h>
+
+namespace locard::forensics {
+namespace {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+
+// exp(delta) T with delta = (rotation vector, translation), world-frame left perturbation.
+Isometry3d perturb(const Isometry3d& T, const Vector6d& delta) {
+  Isometry3d D = Isometry3d::Identity();
+  const Eigen::Vector3d w = delta.head<3>();
+  if (w.norm() > 0) D.linear() = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix();
+  D.translation() = delta.tail<3>();
+  return D * T;
+}
+
+// The edge residual of pose_graph.hpp: E = (T_t^-1 T_s) Z^-1, xi = (2 vec(q_E), p_E).
+Vector6d edge_residual(const Isometry3d& T_w_s, const Isometry3d& T_w_t,
+                       const Isometry3d& T_t_s_measured) {
+  const Isometry3d E = T_w_t.inverse() * T_w_s * T_t_s_measured.inverse();
+  Eigen::Quaterniond q(E.rotation());
+  if (q.w() < 0) q.coeffs() *= -1.0;
+  Vector6d xi;
+  xi.head<3>() = 2.0 * q.vec();
+  xi.tail<3>() = E.translation();
+  return xi;
+}
+
+}  // namespace
+
+std::vector<Matrix6d> pose_covariances(const PoseGraph& graph,
+                                       const std::vector<double>& residual_sigma_m,
+                                       std::size_t fixed_node) {
+  const std::size_t n = graph.nodes.size();
+  if (n == 0) return {};
+  if (fixed_node >= n) throw InputError("pose covariance: fixed node out of range");
+  if (residual_sigma_m.size() != 1 && residual_sigma_m.size() != graph.edges.size())
+    throw InputError("pose covariance: one residual sigma, or one per edge, is needed");
+  // Free nodes get consecutive 6-blocks; the fixed node has none.
+  auto block = [&](std::size_t k) { return static_cast<int>(6 * (k < fixed_node ? k : k - 1)); };
+  const int dim = static_cast<int>(6 * (n - 1));
+  std::vector<Eigen::Triplet<double>> triplets;
+  constexpr double h = 1e-6;
+  for (std::size_t e = 0; e < graph.edges.size(); ++e) {
+    const PoseGraphEdge& edge = graph.edges[e];
+    if (edge.source >= n || edge.target >= n)
+      throw InputError(fmt::format("pose covariance: edge {} names a missing node", e));
+    const double sigma = residual_sigma_m.size() == 1 ? residual_sigma_m[0] : residual_sigma_m[e];
+    const double weight = (edge.uncertain ? edge.confidence : 1.0) / (sigma * sigma);
+    if (!(weight > 0) || !std::isfinite(weight)) continue;
+    const Isometry3d& Ts = graph.nodes[edge.source];
+    const Isometry3d& Tt = graph.nodes[edge.target];
+    Matrix6d Js, Jt;  // d xi / d delta (central differences)
+    for (int c = 0; c < 6; ++c) {
+      Vector6d d = Vector6d::Zero();
+      d[c] = h;
+      Js.col(c) = (edge_residual(perturb(Ts, d), Tt, edge.T_target_source) -
+                   edge_residual(perturb(Ts, -d), Tt, edge.T_target_source)) / (2 * h);
+      Jt.col(c) = (edge_residual(Ts, perturb(Tt, d), edge.T_target_source) -
+                   edge_residual(Ts, perturb(Tt, -d), edge.T_target_source)) / (2 * h);
+    }
+    const Matrix6d L = weight * edge.information;
+    const std::size_t ids[2] = {edge.source, edge.target};
+    const Matrix6d* Js_t[2] = {&Js, &Jt};
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b) {
+        if (ids[a] == fixed_node || ids[b] == fixed_node) continue;
+        const Matrix6d H = Js_t[a]->transpose() * L * *Js_t[b];
+        for (int r = 0; r < 6; ++r)
+          for (int c = 0; c < 6; ++c)
+            triplets.emplace_back(block(ids[a]) + r, block(ids[b]) + c, H(r, c));
+      }
+  }
+  std::vector<Matrix6d> out(n, Matrix6d::Zero());
+  if (dim == 0) return out;
+  Eigen::SparseMatrix<double> H(dim, dim);
+  H.setFromTriplets(triplets.begin(), triplets.end());
+  // A tiny ridge keeps a node that no edge constrains from making the system singular; its
+  // covariance then comes out huge, which is the honest answer.
+  for (int i = 0; i < dim; ++i) H.coeffRef(i, i) += 1e-9;
+  Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(H);
+  if (solver.info() != Eigen::Success) throw Error("pose covariance: Hessian factorisation failed");
+  Eigen::MatrixXd rhs = Eigen::MatrixXd::Zero(dim, 6);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (k == fixed_node) continue;
+    rhs.setZero();
+    for (int c = 0; c < 6; ++c) rhs(block(k) + c, c) = 1.0;
+    const Eigen::MatrixXd x = solver.solve(rhs);
+    out[k] = x.block(block(k), 0, 6, 6);
+    out[k] = 0.5 * (out[k] + out[k].transpose()).eval();
+  }
+  return out;
+}
+
+}  // namespace locard::forensics

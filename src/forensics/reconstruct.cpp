@@ -1,0 +1,567 @@
+#include <locard/forensics/reconstruct.hpp>
+
+#include "forensics/json_util.hpp"
+
+#include <locard/alignment/sequential_alignment.hpp>
+#include <locard/alignment/stage_report.hpp>
+#include <locard/core/atomic_file.hpp>
+#include <locard/core/error.hpp>
+#include <locard/forensics/case_folder.hpp>
+#include <locard/forensics/case_model.hpp>
+#include <locard/forensics/integrity.hpp>
+#include <locard/forensics/measurement.hpp>
+#include <locard/forensics/pose_covariance.hpp>
+#include <locard/forensics/report.hpp>
+#include <locard/io/mesh_export.hpp>
+#include <locard/io/ply.hpp>
+#include <locard/io/rgbd_sequence.hpp>
+#include <locard/io/trajectory_io.hpp>
+#include <locard/surface/fusion.hpp>
+#include <locard/surface/mesh_cleanup.hpp>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <tbb/parallel_for.h>
+
+#include <chrono>
+#include <fstream>
+#include <map>
+#include <set>
+#include <sstream>
+
+namespace locard::forensics {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+double seconds_since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+json pose_json(const Isometry3d& T) {
+  json rows = json::array();
+  for (int r = 0; r < 4; ++r)
+    rows.push_back({T.matrix()(r, 0), T.matrix()(r, 1), T.matrix()(r, 2), T.matrix()(r, 3)});
+  return rows;
+}
+
+json matrix6_json(const Matrix6d& m) {
+  json rows = json::array();
+  for (int r = 0; r < 6; ++r) {
+    json row = json::array();
+    for (int c = 0; c < 6; ++c) row.push_back(m(r, c));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+void write_json(const fs::path& path, const json& j) {
+  AtomicFile f(path, false);
+  f.stream() << j.dump(1) << '\n';
+  f.commit();
+}
+
+void write_text(const fs::path& path, const std::string& text) {
+  AtomicFile f(path, false);
+  f.stream() << text;
+  f.commit();
+}
+
+// The parameters a file may set, with their JSON types checked on reading.
+template <typename F>
+void for_each_field(ReconstructParameters& p, F&& f) {
+  f("mode", p.mode);
+  f("align_voxel_m", p.align_voxel_m);
+  f("stride", p.stride);
+  f("min_depth_m", p.min_depth_m);
+  f("max_depth_m", p.max_depth_m);
+  f("first_frame", p.first_frame);
+  f("max_frames", p.max_frames);
+  f("loop_closure", p.loop_closure);
+  f("loop_max_angle_deg", p.loop_max_angle_deg);
+  f("loop_max_distance_m", p.loop_max_distance_m);
+  f("loop_min_fitness", p.loop_min_fitness);
+  f("seed", p.seed);
+  f("mesh_voxel_m", p.mesh_voxel_m);
+  f("truncation_m", p.truncation_m);
+  f("min_component", p.min_component);
+  f("formats", p.formats);
+  f("cloud_voxel_m", p.cloud_voxel_m);
+  f("world_frame", p.world_frame);
+  f("snap_radius_m", p.snap_radius_m);
+  f("pdf", p.pdf);
+  f("render_width", p.render_width);
+  f("render_height", p.render_height);
+  f("title", p.title);
+}
+
+json parameters_json(const ReconstructParameters& p) {
+  json j = json::object();
+  ReconstructParameters copy = p;
+  for_each_field(copy, [&](const char* key, auto& value) { j[key] = value; });
+  j["reference"] = p.reference.string();
+  return j;
+}
+
+// Every file of the input, hashed (in parallel), sorted by path.
+std::vector<FileRecord> hash_inputs(const fs::path& root, const ProgressCallback& progress) {
+  std::vector<std::string> rel;
+  if (fs::is_directory(root))
+    rel = list_files_recursive(root);
+  else
+    rel.push_back(root.filename().string());
+  const fs::path base = fs::is_directory(root) ? root : root.parent_path();
+  std::vector<FileRecord> out(rel.size());
+  std::atomic<std::size_t> done{0};
+  tbb::parallel_for(std::size_t{0}, rel.size(), [&](std::size_t i) {
+    out[i].path = rel[i];
+    out[i].bytes = fs::file_size(base / rel[i]);
+    out[i].sha256 = sha256_file(base / rel[i]);
+    if (progress) progress(++done, rel.size());
+  });
+  return out;
+}
+
+std::string software_version() { return LOCARD_VERSION; }
+
+}  // namespace
+
+std::string ReconstructParameters::to_json() const { return parameters_json(*this).dump(1); }
+
+ReconstructParameters ReconstructParameters::from_json_file(const fs::path& path,
+                                                            const ReconstructParameters& defaults) {
+  std::ifstream in(path);
+  if (!in) throw_input_error(path, "cannot read the config file");
+  json j;
+  try {
+    j = json::parse(in);
+  } catch (const json::parse_error& e) {
+    throw_input_error(path, fmt::format("not valid JSON: {}", e.what()));
+  }
+  if (!j.is_object()) throw_input_error(path, "expected a JSON object of parameters");
+  ReconstructParameters p = defaults;
+  std::set<std::string> seen;
+  std::vector<std::string> names;
+  for_each_field(p, [&](const char* key, auto& value) {
+    names.push_back(key);
+    if (!j.contains(key)) return;
+    seen.insert(key);
+    using T = std::decay_t<decltype(value)>;
+    const json& v = j[key];
+    const bool ok = std::is_same_v<T, bool>          ? v.is_boolean()
+                    : std::is_same_v<T, std::string> ? v.is_string()
+                    : std::is_floating_point_v<T>    ? v.is_number()
+                                                     : v.is_number_integer() && v.get<double>() >= 0;
+    if (!ok) throw_input_error(path, fmt::format("\"{}\": wrong type or value", key));
+    value = v.get<T>();
+  });
+  if (j.contains("reference")) {
+    if (!j["reference"].is_string()) throw_input_error(path, "\"reference\": expected a path");
+    p.reference = j["reference"].get<std::string>();
+    seen.insert("reference");
+  }
+  for (const auto& [key, value] : j.items())
+    if (!seen.count(key)) {
+      std::string list;
+      for (const auto& n : names) list += (list.empty() ? "" : ", ") + n;
+      throw_input_error(path, fmt::format("unknown parameter '{}' (known: {}, reference)", key, list));
+    }
+  return p;
+}
+
+ReconstructParameters ReconstructParameters::defaults_for_sensor(const std::string& name) {
+  ReconstructParameters p;
+  if (name.find("kinect_v2") != std::string::npos) {
+    p.max_depth_m = 4.0;  // time of flight: usable to 4.5 m, noise grows beyond
+  } else if (name.find("tum") != std::string::npos || name.find("seven") != std::string::npos ||
+             name.find("kinect_v1") != std::string::npos) {
+    p.max_depth_m = 3.0;  // structured light: quadratic noise, keep near readings
+    p.mode = "odometry";  // hand-held video: consecutive frames overlap heavily
+  }
+  return p;
+}
+
+ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_dir,
+                                    const ReconstructParameters& P, bool force,
+                                    const StageCallbacks& cb) {
+  const auto start = Clock::now();
+  auto begin = [&](const std::string& stage, std::size_t total) -> ProgressCallback {
+    return cb.begin ? cb.begin(stage, total) : ProgressCallback{};
+  };
+  auto end = [&](const std::string& stage) {
+    if (cb.end) cb.end(stage);
+  };
+  auto note = [&](const std::string& m) {
+    if (cb.log) cb.log(m);
+  };
+
+  // ---- checks before anything is written
+  if (!fs::exists(input)) throw_input_error(input, "no such file or folder");
+  const DatasetFormat format = detect_format(input);
+  if (format != DatasetFormat::Tum && format != DatasetFormat::SevenScenes &&
+      format != DatasetFormat::Redwood)
+    throw_input_error(input, fmt::format("expected an RGB-D sequence folder (TUM, 7-Scenes, "
+                                         "Redwood or `locard scan-sim` output), found {}",
+                                         to_string(format)));
+  const auto mode = parse_alignment_mode(P.mode);
+  if (!mode) throw InputError(fmt::format("mode must be cumulative or odometry, got '{}'", P.mode));
+  if (P.world_frame != "auto" && P.world_frame != "first-camera")
+    throw InputError(fmt::format("world_frame must be auto or first-camera, got '{}'", P.world_frame));
+  std::vector<MeshFormat> formats;
+  {
+    std::stringstream ss(P.formats);
+    std::string name;
+    while (std::getline(ss, name, ','))
+      if (const auto f = parse_mesh_format(name)) formats.push_back(*f);
+      else throw InputError(fmt::format("formats: unknown mesh format '{}'", name));
+  }
+  const RgbdSequence sequence = open_rgbd_sequence(input);
+  if (sequence.frames.size() < 2) throw_input_error(input, "the sequence needs at least two frames");
+  fs::path reference = P.reference;
+  if (reference.empty() && fs::is_regular_file(input / "measurements.json"))
+    reference = input / "measurements.json";
+  std::vector<ReferenceMeasurement> refs;
+  if (!reference.empty()) refs = read_reference_measurements(reference);  // fail early
+  const fs::path input_root = fs::absolute(input).lexically_normal();
+
+  CaseFolder folder = CaseFolder::create(case_dir, force);
+  ReconstructSummary summary;
+  summary.case_dir = case_dir;
+  summary.frames = sequence.frames.size();
+
+  // ---- ingest: hash the inputs, write case.json
+  auto t0 = Clock::now();
+  const std::vector<FileRecord> inputs = hash_inputs(input_root, begin("hash inputs", 0));
+  end("hash inputs");
+  json input_files = json::array();
+  for (const FileRecord& r : inputs)
+    input_files.push_back({{"path", r.path}, {"bytes", r.bytes}, {"sha256", r.sha256}});
+  const SensorNoiseModel noise = SensorNoiseModel::for_camera(sequence.intrinsics.name);
+  json seeds = {{"ransac", P.seed}};
+  if (fs::is_regular_file(input_root / "simulation.json")) {
+    std::ifstream sim_in(input_root / "simulation.json");
+    try {
+      const json sim = json::parse(sim_in);
+      if (sim.contains("seed")) seeds["simulation"] = sim["seed"];
+    } catch (const json::parse_error&) {
+    }
+  }
+  json case_json = {
+      {"format", "locard-case/1"},
+      {"title", P.title.empty() ? "Case " + fs::absolute(case_dir).filename().string() : P.title},
+      {"created", utc_now_iso8601()},
+      {"software", {{"name", "locard"}, {"version", software_version()}}},
+      {"command", "reconstruct"},
+      {"inputs",
+       {{"root", input_root.string()},
+        {"format", std::string(to_string(format))},
+        {"frames", sequence.frames.size()},
+        {"ground_truth", sequence.ground_truth_source},
+        {"files", input_files}}},
+      {"sensor",
+       {{"intrinsics_name", sequence.intrinsics.name},
+        {"intrinsics_source", sequence.intrinsics_source},
+        {"width", sequence.intrinsics.width},
+        {"height", sequence.intrinsics.height},
+        {"fx", sequence.intrinsics.fx},
+        {"fy", sequence.intrinsics.fy},
+        {"cx", sequence.intrinsics.cx},
+        {"cy", sequence.intrinsics.cy},
+        {"depth_scale", sequence.depth_scale},
+        {"noise_model", noise.name},
+        {"depth_step_m", noise.depth_step_m}}},
+      {"parameters", parameters_json(P)},
+      {"seeds", seeds},
+      {"units", {{"length", "m"}, {"angle", "deg"}}}};
+  write_json(folder.path("case.json"), case_json);
+  {
+    LogStep s;
+    s.step = "ingest";
+    s.parameters_json = json{{"input", input_root.string()}, {"files", inputs.size()}}.dump();
+    s.duration_s = seconds_since(t0);
+    s.outputs = {"case.json"};
+    folder.append_log_step(s);
+  }
+  summary.stage_seconds.emplace_back("ingest", seconds_since(t0));
+
+  // ---- align
+  t0 = Clock::now();
+  AlignmentOptions ao;
+  ao.mode = *mode;
+  ao.voxel_size = P.align_voxel_m;
+  ao.stride = P.stride;
+  ao.min_depth_m = P.min_depth_m;
+  ao.max_depth_m = P.max_depth_m;
+  ao.first_frame = P.first_frame;
+  ao.max_frames = P.max_frames;
+  ao.loop_closure = P.loop_closure;
+  ao.loop_max_angle_deg = P.loop_max_angle_deg;
+  ao.loop_max_distance_m = P.loop_max_distance_m;
+  ao.loop_min_fitness = P.loop_min_fitness;
+  ao.seed = P.seed;
+  ao.pose_graph.max_correspondence_distance = 1.5 * P.align_voxel_m;
+  const std::size_t first = std::min(P.first_frame, sequence.frames.size());
+  const std::size_t total =
+      P.max_frames ? std::min(P.max_frames, sequence.frames.size() - first) : sequence.frames.size() - first;
+  ao.progress = begin("align", total);
+  AlignmentResult result = align_sequence(sequence, ao);
+  end("align");
+  for (const FrameAlignment& f : result.frames) summary.registered += f.status == FrameStatus::Registered;
+  if (summary.registered < 2)
+    throw InputError(fmt::format("{}: fewer than two frames could be registered; nothing to "
+                                 "reconstruct",
+                                 input.string()));
+  if (result.pieces > 1)
+    note(fmt::format("the sequence falls into {} unconnected pieces; only piece 0 is meshed",
+                     result.pieces));
+  // Gauge: move the model so the first registered view sits at its known pose, if any.
+  Isometry3d T_world_estimate = Isometry3d::Identity();
+  std::string world_frame = "camera frame of the first registered view";
+  if (P.world_frame == "auto" && !result.node_frames.empty()) {
+    const FrameAlignment& f0 = result.frames[result.node_frames[0]];
+    const auto& gt = sequence.frames[f0.sequence_index].T_world_camera;
+    if (gt && f0.T_world_camera_final) {
+      T_world_estimate = *gt * f0.T_world_camera_final->inverse();
+      world_frame = fmt::format("the input's world frame, fixed by the known pose of frame {} "
+                                "(the gauge); every other pose is estimated",
+                                f0.frame_index);
+    }
+  }
+  for (FrameAlignment& f : result.frames) {
+    if (f.T_world_camera_svd) f.T_world_camera_svd = T_world_estimate * *f.T_world_camera_svd;
+    if (f.T_world_camera_icp) f.T_world_camera_icp = T_world_estimate * *f.T_world_camera_icp;
+    if (f.T_world_camera_final) f.T_world_camera_final = T_world_estimate * *f.T_world_camera_final;
+  }
+  for (Isometry3d& T : result.graph.nodes) T = T_world_estimate * T;
+  // Pose covariances: edge information scaled by the registration residual (at least the
+  // sensor's noise floor at 1.5 m).
+  std::vector<double> sigmas;
+  const double floor_sigma = noise.axial_sigma_m(1.5, 0.0);
+  for (const PoseGraphEdge& e : result.graph.edges) {
+    const FrameAlignment& fs_ = result.frames[result.node_frames[e.source]];
+    const FrameAlignment& ft = result.frames[result.node_frames[e.target]];
+    sigmas.push_back(std::max({floor_sigma, fs_.inlier_rmse, ft.inlier_rmse}));
+  }
+  const std::vector<Matrix6d> covariances =
+      sigmas.empty() ? std::vector<Matrix6d>(result.graph.nodes.size(), Matrix6d::Zero())
+                     : pose_covariances(result.graph, sigmas, ao.pose_graph.fixed_node);
+
+  const StageReport stage = make_stage_report(result, sequence);
+  write_stage_report_json(folder.path("alignment/stage_report.json"), result, stage);
+  write_stage_report_svg(folder.path("alignment/stage_report.svg"), result, stage);
+  write_tum_trajectory(folder.path("alignment/trajectory.txt"), result.trajectory(0));
+  {
+    json nodes = json::array(), edges = json::array(), rejected = json::array(), views = json::array();
+    for (std::size_t k = 0; k < result.graph.nodes.size(); ++k) {
+      const FrameAlignment& f = result.frames[result.node_frames[k]];
+      nodes.push_back({{"node", k}, {"frame_index", f.frame_index}, {"timestamp", f.timestamp},
+                       {"piece", f.piece}, {"T_world_camera", pose_json(result.graph.nodes[k])}});
+      if (f.piece != 0) continue;
+      views.push_back({{"node", k},
+                       {"frame_index", f.frame_index},
+                       {"timestamp", f.timestamp},
+                       {"depth_path", fs::absolute(sequence.frames[f.sequence_index].depth_path)
+                                          .lexically_normal()
+                                          .string()},
+                       {"T_world_camera", pose_json(result.graph.nodes[k])},
+                       {"covariance", matrix6_json(covariances[k])},
+                       {"sigma_translation_m", std::sqrt(covariances[k].block<3, 3>(3, 3).trace())},
+                       {"sigma_rotation_deg",
+                        std::sqrt(covariances[k].block<3, 3>(0, 0).trace()) * 180.0 / M_PI}});
+    }
+    auto edge_json = [&](const PoseGraphEdge& e) {
+      return json{{"source_node", e.source},
+                  {"target_node", e.target},
+                  {"source_frame", result.frames[result.node_frames[e.source]].frame_index},
+                  {"target_frame", result.frames[result.node_frames[e.target]].frame_index},
+                  {"kind", e.uncertain ? "loop" : "odometry"},
+                  {"T_target_source", pose_json(e.T_target_source)},
+                  {"information", matrix6_json(e.information)},
+                  {"line_process_weight", e.confidence},
+                  {"chi2", e.chi2}};
+    };
+    for (const PoseGraphEdge& e : result.graph.edges) edges.push_back(edge_json(e));
+    for (const RejectedEdge& e : result.pose_graph.rejected) {
+      json j = edge_json(e.edge);
+      j["reason"] = e.reason;
+      rejected.push_back(j);
+    }
+    write_json(folder.path("alignment/pose_graph.json"),
+               {{"convention", "T_world_camera maps camera points to the world; an edge's "
+                               "T_target_source maps source-camera points into the target "
+                               "camera; information is 6x6, rotation then translation"},
+                {"world_frame", world_frame},
+                {"nodes", nodes},
+                {"edges", edges},
+                {"rejected_edges", rejected}});
+    write_json(folder.path("alignment/pose_covariance.json"),
+               {{"convention", "covariance: 6x6, left perturbation exp(delta) T_world_camera, "
+                               "delta = (rotation rad, translation m) in the world frame"},
+                {"residual_sigma_m", sigmas},
+                {"views", views}});
+  }
+  std::size_t loops = 0;
+  for (const LoopCandidate& c : result.loops) loops += c.accepted;
+  case_json["world_frame"] = world_frame;
+  case_json["alignment"] = {
+      {"frames", result.frames.size()},
+      {"registered", summary.registered},
+      {"pieces", result.pieces},
+      {"loop_closures", loops},
+      {"pose_graph", {{"initial_cost", result.pose_graph.initial_cost},
+                      {"final_cost", result.pose_graph.final_cost}}},
+      {"unregistered_frames", result.unregistered_frame_indices()},
+      {"seconds", result.timings.total_s}};
+  if (stage.has_ground_truth) {
+    json s = json::array();
+    for (int k = 0; k < 3; ++k)
+      s.push_back({{"stage", std::string(to_string(static_cast<AlignmentStage>(k)))},
+                   {"views", stage.summary[k].views},
+                   {"mean_translation_m", stage.summary[k].mean_translation_m},
+                   {"max_translation_m", stage.summary[k].max_translation_m},
+                   {"ate_rmse_m", stage.summary[k].ate_rmse_m ? json(*stage.summary[k].ate_rmse_m) : json()}});
+    case_json["alignment"]["stage_errors"] = s;
+  }
+  write_json(folder.path("case.json"), case_json);
+  {
+    LogStep s;
+    s.step = "align";
+    s.parameters_json = json{{"mode", P.mode}, {"voxel_m", P.align_voxel_m}, {"stride", P.stride},
+                             {"depth_range_m", {P.min_depth_m, P.max_depth_m}},
+                             {"loop_closure", P.loop_closure}, {"seed", P.seed},
+                             {"world_frame", world_frame}}.dump();
+    s.duration_s = seconds_since(t0);
+    s.outputs = {"alignment/trajectory.txt", "alignment/pose_graph.json",
+                 "alignment/pose_covariance.json", "alignment/stage_report.json",
+                 "alignment/stage_report.svg", "case.json"};
+    folder.append_log_step(s);
+  }
+  summary.stage_seconds.emplace_back("align", seconds_since(t0));
+
+  // ---- mesh
+  t0 = Clock::now();
+  std::vector<std::optional<Isometry3d>> poses(sequence.frames.size());
+  for (const FrameAlignment& f : result.frames)
+    if (f.status == FrameStatus::Registered && f.piece == 0 && f.T_world_camera_final)
+      poses[f.sequence_index] = *f.T_world_camera_final;
+  FusionOptions fo;
+  fo.tsdf.voxel_size = P.mesh_voxel_m;
+  fo.tsdf.truncation = P.truncation_m > 0 ? P.truncation_m : 4.0 * P.mesh_voxel_m;
+  fo.tsdf.max_depth_m = P.max_depth_m;
+  fo.tsdf.min_depth_m = P.min_depth_m;
+  fo.cloud_voxel = P.cloud_voxel_m;
+  fo.progress = begin("mesh", summary.registered);
+  FusionResult fused = fuse_sequence(sequence, poses, fo);
+  end("mesh");
+  const std::size_t raw_triangles = fused.mesh.triangle_count();
+  const ComponentReport components = remove_small_components(fused.mesh, P.min_component);
+  std::vector<fs::path> mesh_outputs;
+  for (MeshFormat f : formats) {
+    const fs::path rel = fmt::format("mesh/mesh.{}", to_string(f));
+    write_mesh(folder.path(rel), fused.mesh);
+    mesh_outputs.push_back(rel);
+    if (f == MeshFormat::Obj) mesh_outputs.push_back("mesh/mesh.mtl");
+  }
+  if (std::find(formats.begin(), formats.end(), MeshFormat::Ply) == formats.end()) {
+    write_mesh(folder.path("mesh/mesh.ply"), fused.mesh);  // measurements need it
+    mesh_outputs.push_back("mesh/mesh.ply");
+  }
+  write_ply(folder.path("cloud/registered.ply"), fused.cloud);
+  write_json(folder.path("mesh/mesh.json"),
+             {{"method", "tsdf"},
+              {"voxel_size", fo.tsdf.voxel_size},
+              {"truncation", fo.tsdf.truncation},
+              {"depth_range", {fo.tsdf.min_depth_m, fo.tsdf.max_depth_m}},
+              {"frames_fused", fused.frames_fused},
+              {"raw_triangles", raw_triangles},
+              {"removed_components", components.removed_components},
+              {"removed_triangles", components.removed_triangles},
+              {"inferred_triangles", 0},
+              {"vertices", fused.mesh.vertex_count()},
+              {"triangles", fused.mesh.triangle_count()},
+              {"cloud_points", fused.cloud.size()},
+              {"cloud_voxel", P.cloud_voxel_m}});
+  summary.vertices = fused.mesh.vertex_count();
+  summary.triangles = fused.mesh.triangle_count();
+  {
+    LogStep s;
+    s.step = "mesh";
+    s.parameters_json = json{{"method", "tsdf"}, {"voxel_m", P.mesh_voxel_m},
+                             {"truncation_m", fo.tsdf.truncation},
+                             {"min_component", P.min_component}, {"formats", P.formats},
+                             {"cloud_voxel_m", P.cloud_voxel_m}}.dump();
+    s.duration_s = seconds_since(t0);
+    s.inputs = {"alignment/trajectory.txt"};
+    s.outputs = mesh_outputs;
+    s.outputs.push_back("mesh/mesh.json");
+    s.outputs.push_back("cloud/registered.ply");
+    folder.append_log_step(s);
+  }
+  summary.stage_seconds.emplace_back("mesh", seconds_since(t0));
+
+  // ---- measurements against the reference (tape) values
+  if (!refs.empty()) {
+    t0 = Clock::now();
+    const CaseModel model = CaseModel::load(folder);
+    SnapOptions so;
+    so.search_radius_m = P.snap_radius_m;
+    auto progress = begin("measure", refs.size());
+    std::vector<TableRow> rows;
+    for (std::size_t i = 0; i < refs.size(); ++i) {
+      auto one = compare_with_reference(model, {refs[i]}, so);
+      rows.push_back(std::move(one[0]));
+      if (progress) progress(i + 1, refs.size());
+    }
+    end("measure");
+    {
+      std::ifstream in(reference, std::ios::binary);
+      std::stringstream ss;
+      ss << in.rdbuf();
+      write_text(folder.path("measurements/reference.json"), ss.str());
+    }
+    write_measurement_table(folder, rows);
+    summary.measurements = rows.size();
+    for (const TableRow& r : rows) summary.measurements_within += r.within_uncertainty;
+    LogStep s;
+    s.step = "measure reference";
+    s.parameters_json = json{{"reference", fs::absolute(reference).string()},
+                             {"snap_radius_m", so.search_radius_m},
+                             {"coverage_factor", so.coverage_factor}}.dump();
+    s.duration_s = seconds_since(t0);
+    s.inputs = {fs::absolute(reference), "mesh/mesh.ply", "alignment/pose_covariance.json"};
+    s.outputs = {"measurements/reference.json", "measurements/table.json", "measurements/table.csv"};
+    folder.append_log_step(s);
+    summary.stage_seconds.emplace_back("measure", seconds_since(t0));
+  }
+
+  // ---- report
+  t0 = Clock::now();
+  begin("report", 0);
+  ReportOptions ro;
+  ro.title = case_json["title"].get<std::string>();
+  ro.render_width = P.render_width;
+  ro.render_height = P.render_height;
+  ro.pdf = P.pdf;
+  const ReportResult report = write_case_report(folder, ro);
+  end("report");
+  if (!report.pdf_note.empty()) note(report.pdf_note);
+  {
+    LogStep s;
+    s.step = "report";
+    s.parameters_json = json{{"pdf", P.pdf}, {"render_size", {P.render_width, P.render_height}},
+                             {"pdf_note", report.pdf_note}}.dump();
+    s.duration_s = seconds_since(t0);
+    s.outputs = {"report/report.html"};
+    if (report.pdf) s.outputs.push_back("report/report.pdf");
+    folder.append_log_step(s);
+  }
+  summary.stage_seconds.emplace_back("report", seconds_since(t0));
+  summary.report_html = report.html;
+  summary.report_pdf = report.pdf;
+  summary.seconds = seconds_since(start);
+  return summary;
+}
+
+}  // namespace locard::forensics

@@ -1,0 +1,552 @@
+#include <locard/forensics/report.hpp>
+
+#include "forensics/json_util.hpp"
+
+#include <locard/core/atomic_file.hpp>
+#include <locard/core/error.hpp>
+#include <locard/forensics/case_folder.hpp>
+#include <locard/forensics/integrity.hpp>
+#include <locard/io/image_io.hpp>
+#include <locard/io/trajectory_io.hpp>
+#include <locard/sim/raycaster.hpp>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+#include <tbb/parallel_for.h>
+
+#include <Eigen/Geometry>
+
+#include <atomic>
+#include <chrono>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <unistd.h>
+
+namespace locard::forensics {
+namespace {
+
+namespace fs = std::filesystem;
+using Eigen::Vector3d;
+using nlohmann::json;
+
+std::string read_text(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+json read_json_or_null(const fs::path& p) {
+  if (!fs::exists(p)) return nullptr;
+  std::ifstream in(p);
+  try {
+    return json::parse(in);
+  } catch (const json::parse_error&) {
+    return nullptr;
+  }
+}
+
+std::string esc(const std::string& s) {
+  std::string out;
+  for (char c : s) {
+    switch (c) {
+      case '&': out += "&amp;"; break;
+      case '<': out += "&lt;"; break;
+      case '>': out += "&gt;"; break;
+      case '"': out += "&quot;"; break;
+      default: out += c;
+    }
+  }
+  return out;
+}
+
+std::string base64(const std::vector<std::uint8_t>& data) {
+  static constexpr char k[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  std::string out;
+  out.reserve((data.size() + 2) / 3 * 4);
+  for (std::size_t i = 0; i < data.size(); i += 3) {
+    const std::uint32_t b0 = data[i], b1 = i + 1 < data.size() ? data[i + 1] : 0,
+                        b2 = i + 2 < data.size() ? data[i + 2] : 0;
+    const std::uint32_t v = (b0 << 16) | (b1 << 8) | b2;
+    out += k[(v >> 18) & 63];
+    out += k[(v >> 12) & 63];
+    out += i + 1 < data.size() ? k[(v >> 6) & 63] : '=';
+    out += i + 2 < data.size() ? k[v & 63] : '=';
+  }
+  return out;
+}
+
+std::string mm(double m, int digits = 1) { return fmt::format("{:.{}f}", 1000.0 * m, digits); }
+std::string cm(double m, int digits = 1) { return fmt::format("{:.{}f}", 100.0 * m, digits); }
+std::string v3(const json& j, int digits = 3) {
+  if (!j.is_array() || j.size() != 3) return "";
+  return fmt::format("({:.{}f}, {:.{}f}, {:.{}f})", j[0].get<double>(), digits,
+                     j[1].get<double>(), digits, j[2].get<double>(), digits);
+}
+
+// Shades a hit: headlight Lambert times the interpolated vertex colour.
+void shade(const TriangleMesh& mesh, const sim::RayHit& hit, const Vector3d& dir, std::uint8_t* px) {
+  const auto& t = mesh.triangles[hit.triangle];
+  const Vector3d a = mesh.vertices[t[0]].cast<double>(), b = mesh.vertices[t[1]].cast<double>(),
+                 c = mesh.vertices[t[2]].cast<double>();
+  const Vector3d n = (b - a).cross(c - a).normalized();
+  const double lambert = 0.35 + 0.65 * std::abs(n.dot(dir.normalized()));
+  double rgb[3] = {180, 180, 180};
+  if (!mesh.vertex_colors.empty()) {
+    const double w0 = 1.0 - hit.u - hit.v, w1 = hit.u, w2 = hit.v;
+    const Rgb8 &c0 = mesh.vertex_colors[t[0]], &c1 = mesh.vertex_colors[t[1]], &c2 = mesh.vertex_colors[t[2]];
+    rgb[0] = w0 * c0.r + w1 * c1.r + w2 * c2.r;
+    rgb[1] = w0 * c0.g + w1 * c1.g + w2 * c2.g;
+    rgb[2] = w0 * c0.b + w1 * c1.b + w2 * c2.b;
+  }
+  for (int k = 0; k < 3; ++k)
+    px[k] = static_cast<std::uint8_t>(std::clamp(rgb[k] * lambert, 0.0, 255.0));
+}
+
+struct TopView {
+  ColorImage image;
+  Vector3d centre, ex, ey, up;  // image x along ex, image y along -ey (north up)
+  double scale = 1.0;           // pixels per metre
+  int width = 0, height = 0;
+  Eigen::Vector2d to_pixel(const Vector3d& p) const {
+    const Vector3d r = p - centre;
+    return {0.5 * width + scale * r.dot(ex), 0.5 * height - scale * r.dot(ey)};
+  }
+};
+
+// Orthographic view from above, cut below the ceiling: rays start at the cut height.
+TopView render_top_view(const TriangleMesh& mesh, const sim::Raycaster& rc, const Vector3d& up,
+                        int width, int height) {
+  TopView v;
+  v.up = up.normalized();
+  v.ex = (std::abs(v.up.x()) < 0.9 ? Vector3d::UnitX() : Vector3d::UnitY());
+  v.ex = (v.ex - v.ex.dot(v.up) * v.up).normalized();
+  v.ey = v.up.cross(v.ex);
+  Vector3d lo = Vector3d::Constant(1e30), hi = Vector3d::Constant(-1e30);
+  double hmin = 1e30, hmax = -1e30;
+  for (const auto& p : mesh.vertices) {
+    const Vector3d q = p.cast<double>();
+    const Vector3d l(q.dot(v.ex), q.dot(v.ey), 0);
+    lo = lo.cwiseMin(l);
+    hi = hi.cwiseMax(l);
+    hmin = std::min(hmin, q.dot(v.up));
+    hmax = std::max(hmax, q.dot(v.up));
+  }
+  const double sx = hi.x() - lo.x(), sy = hi.y() - lo.y();
+  v.scale = 0.92 * std::min(width / std::max(sx, 1e-3), height / std::max(sy, 1e-3));
+  v.width = width;
+  v.height = height;
+  // Cut 15 % of the height below the top (the ceiling of a room).
+  const double cut = hmax - 0.15 * (hmax - hmin);
+  v.centre = 0.5 * (lo.x() + hi.x()) * v.ex + 0.5 * (lo.y() + hi.y()) * v.ey + cut * v.up;
+  v.image = ColorImage(width, height, 255);
+  const Vector3d dir = -v.up;
+  tbb::parallel_for(0, height, [&](int y) {
+    for (int x = 0; x < width; ++x) {
+      const Vector3d o = v.centre + ((x + 0.5 - 0.5 * width) / v.scale) * v.ex -
+                         ((y + 0.5 - 0.5 * height) / v.scale) * v.ey;
+      const sim::RayHit h = rc.intersect(o.cast<float>(), dir.cast<float>());
+      if (h.hit()) shade(mesh, h, dir, &v.image.at(x, y, 0));
+    }
+  });
+  return v;
+}
+
+std::string svg_text(const std::string& svg) {
+  const auto p = svg.find("<svg");
+  return p == std::string::npos ? svg : svg.substr(p);
+}
+
+}  // namespace
+
+ColorImage render_mesh_view(const TriangleMesh& mesh, const sim::Raycaster& rc, const Vector3d& eye,
+                            const Vector3d& target, const Vector3d& up, double fov_deg, int width,
+                            int height) {
+  const Vector3d fwd = (target - eye).normalized();
+  const Vector3d right = fwd.cross(up).normalized();
+  const Vector3d down = fwd.cross(right);
+  const double f = 0.5 * height / std::tan(0.5 * fov_deg * M_PI / 180.0);
+  ColorImage img(width, height, 255);
+  tbb::parallel_for(0, height, [&](int y) {
+    for (int x = 0; x < width; ++x) {
+      const Vector3d dir = fwd + ((x + 0.5 - 0.5 * width) / f) * right + ((y + 0.5 - 0.5 * height) / f) * down;
+      const sim::RayHit h = rc.intersect(eye.cast<float>(), dir.cast<float>());
+      if (h.hit()) shade(mesh, h, dir, &img.at(x, y, 0));
+    }
+  });
+  return img;
+}
+
+std::vector<std::uint8_t> encode_png(const ColorImage& image) {
+  static std::atomic<int> counter{0};
+  const fs::path tmp = fs::temp_directory_path() /
+                       fmt::format("locard-png-{}-{}.png", ::getpid(), counter++);
+  write_png(tmp, image);
+  std::ifstream in(tmp, std::ios::binary);
+  std::vector<std::uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  in.close();
+  fs::remove(tmp);
+  return bytes;
+}
+
+std::string png_data_uri(const ColorImage& image) {
+  return "data:image/png;base64," + base64(encode_png(image));
+}
+
+fs::path find_chromium() {
+  if (const char* env = std::getenv("LOCARD_CHROMIUM"); env && *env)
+    return fs::exists(env) ? fs::path(env) : fs::path();
+  for (const char* name : {"chromium", "chromium-browser", "google-chrome"}) {
+    if (const char* path = std::getenv("PATH")) {
+      std::stringstream ss(path);
+      std::string dir;
+      while (std::getline(ss, dir, ':'))
+        if (!dir.empty() && fs::exists(fs::path(dir) / name)) return fs::path(dir) / name;
+    }
+    if (fs::exists(fs::path("/usr/bin") / name)) return fs::path("/usr/bin") / name;
+  }
+  return {};
+}
+
+ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o) {
+  const fs::path root = folder.root();
+  const json case_json = read_json_or_null(root / "case.json");
+  if (case_json.is_null()) throw_input_error(root / "case.json", "missing or not JSON");
+  const TriangleMesh mesh = folder.load_mesh();
+  const sim::Raycaster rc(mesh);
+  const Trajectory trajectory = read_tum_trajectory(root / "alignment" / "trajectory.txt");
+  // Up: the mean of the cameras' -y axes (the sensor is held roughly level).
+  Vector3d up = Vector3d::Zero();
+  for (const StampedPose& p : trajectory) up += p.T_world_camera.linear() * Vector3d(0, -1, 0);
+  up = up.norm() > 1e-6 ? up.normalized() : Vector3d::UnitZ();
+
+  std::string h;
+  const std::string title = o.title.empty() ? case_json.value("title", "Locard case") : o.title;
+  h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n";
+  h += "<title>" + esc(title) + "</title>\n<style>\n"
+       "body{font-family:DejaVu Sans,Arial,sans-serif;margin:24px;color:#222;max-width:1100px}"
+       "h1{font-size:22px}h2{font-size:17px;border-bottom:1px solid #999;margin-top:28px}"
+       "table{border-collapse:collapse;font-size:12px;margin:6px 0}"
+       "td,th{border:1px solid #bbb;padding:2px 6px;text-align:left;vertical-align:top}"
+       "th{background:#eee}td.n{text-align:right;font-variant-numeric:tabular-nums}"
+       ".ok{color:#060}.bad{color:#a00;font-weight:bold}.hash{font-family:monospace;font-size:10px}"
+       ".views img{width:48%;margin:0.5%;border:1px solid #ccc}figure{margin:8px 0}"
+       "figcaption{font-size:12px;color:#555}.note{font-size:12px;color:#555}"
+       "@media print{h2{page-break-after:avoid}table{page-break-inside:auto}}\n</style></head><body>\n";
+  h += "<h1>" + esc(title) + "</h1>\n";
+  h += fmt::format("<p class=\"note\">Case folder <code>{}</code>, created {} by Locard {}. World "
+                   "frame: {}. Lengths in metres unless stated; uncertainties are expanded "
+                   "(k = 2, about 95 %).</p>\n",
+                   esc(fs::absolute(root).string()), esc(case_json.value("created", "")),
+                   esc(case_json["software"].value("version", "")),
+                   esc(case_json.value("world_frame", "")));
+  // Summary
+  h += "<h2 id=\"summary\">Summary</h2>\n<table>";
+  const json& in = case_json["inputs"];
+  h += fmt::format("<tr><th>input</th><td>{} ({}, {} frames, {} files hashed)</td></tr>",
+                   esc(in.value("root", "")), esc(in.value("format", "")),
+                   in.value("frames", 0), in.contains("files") ? in["files"].size() : 0);
+  if (case_json.contains("alignment")) {
+    const json& a = case_json["alignment"];
+    h += fmt::format("<tr><th>alignment</th><td>{} of {} views registered, {} piece(s), {} loop "
+                     "closure(s)</td></tr>",
+                     a.value("registered", 0), a.value("frames", 0), a.value("pieces", 0),
+                     a.value("loop_closures", 0));
+  }
+  if (const json mj = read_json_or_null(root / "mesh" / "mesh.json"); !mj.is_null())
+    h += fmt::format("<tr><th>model</th><td>TSDF mesh, voxel {} mm: {} vertices, {} triangles; "
+                     "registered cloud {} points</td></tr>",
+                     mm(mj.value("voxel_size", 0.0), 1), mj.value("vertices", 0),
+                     mj.value("triangles", 0), mj.value("cloud_points", 0));
+  h += "</table>\n";
+
+  // Rendered views
+  h += "<h2 id=\"views\">Rendered views of the model</h2>\n<div class=\"views\">";
+  const TopView top = render_top_view(mesh, rc, up, o.render_width, o.render_width * 3 / 4);
+  h += "<figure><img alt=\"top view\" src=\"" + png_data_uri(top.image) +
+       "\"><figcaption>Top view (orthographic, cut below the ceiling)</figcaption></figure>";
+  if (!trajectory.empty()) {
+    Vector3d centre = Vector3d::Zero();
+    for (const StampedPose& p : trajectory) centre += p.T_world_camera.translation();
+    centre /= static_cast<double>(trajectory.size());
+    for (int k = 0; k < 3; ++k) {
+      const StampedPose& p = trajectory[trajectory.size() * static_cast<std::size_t>(k) / 3];
+      const Vector3d fwd = p.T_world_camera.linear() * Vector3d::UnitZ();
+      const Vector3d eye = centre - 0.8 * (fwd - fwd.dot(up) * up).normalized() + 0.3 * up;
+      const ColorImage img = render_mesh_view(mesh, rc, eye, eye + fwd, up, 75.0, o.render_width,
+                                              o.render_height);
+      h += "<figure><img alt=\"view " + std::to_string(k + 1) + "\" src=\"" + png_data_uri(img) +
+           "\"><figcaption>From the scanner position, looking as view " +
+           std::to_string(p.frame_index) + " did</figcaption></figure>";
+    }
+  }
+  h += "</div>\n";
+
+  // Stage-error plot (the paper's Fig. 4)
+  h += "<h2 id=\"stage-errors\">Alignment error per stage (Fig. 4)</h2>\n";
+  if (fs::exists(root / "alignment" / "stage_report.svg"))
+    h += "<figure id=\"stage-plot\">" + svg_text(read_text(root / "alignment" / "stage_report.svg")) +
+         "<figcaption>Cumulative error of each view after SVD (feature alignment), ICP and loop "
+         "closure</figcaption></figure>\n";
+  if (case_json.contains("alignment") && case_json["alignment"].contains("stage_errors")) {
+    h += "<table><tr><th>stage</th><th>views</th><th>mean error (mm)</th><th>max (mm)</th><th>ATE "
+         "RMSE (mm)</th></tr>";
+    for (const json& s : case_json["alignment"]["stage_errors"])
+      h += fmt::format("<tr><td>{}</td><td class=n>{}</td><td class=n>{}</td><td class=n>{}</td>"
+                       "<td class=n>{}</td></tr>",
+                       esc(s.value("stage", "")), s.value("views", 0),
+                       mm(s.value("mean_translation_m", 0.0), 2), mm(s.value("max_translation_m", 0.0), 2),
+                       s["ate_rmse_m"].is_number() ? mm(s["ate_rmse_m"].get<double>(), 2) : "n/a");
+    h += "</table>\n";
+  }
+
+  // Trajectory top view: camera path, markers and bullet lines over the top view.
+  const json markers = read_json_or_null(root / "evidence" / "markers.json");
+  const json analyses = read_json_or_null(root / "trajectories" / "analyses.json");
+  {
+    h += "<h2 id=\"trajectory\">Camera trajectory, evidence and bullet lines (top view)</h2>\n";
+    std::string svg = fmt::format(
+        "<svg id=\"trajectory-plot\" xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" "
+        "height=\"{1}\" viewBox=\"0 0 {0} {1}\"><image width=\"{0}\" height=\"{1}\" href=\"{2}\" "
+        "opacity=\"0.55\"/>",
+        top.width, top.height, png_data_uri(top.image));
+    std::string path;
+    for (const StampedPose& p : trajectory) {
+      const auto px = top.to_pixel(p.T_world_camera.translation());
+      path += fmt::format("{}{:.1f},{:.1f} ", path.empty() ? "M" : "L", px.x(), px.y());
+    }
+    svg += "<path d=\"" + path + "\" fill=\"none\" stroke=\"#1f5fbf\" stroke-width=\"2\"/>";
+    for (const StampedPose& p : trajectory) {
+      const auto px = top.to_pixel(p.T_world_camera.translation());
+      const Vector3d f = p.T_world_camera.linear() * Vector3d::UnitZ();
+      const auto tip = top.to_pixel(p.T_world_camera.translation() + 0.25 * f);
+      svg += fmt::format("<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" "
+                         "stroke=\"#1f5fbf\" stroke-width=\"0.8\"/>",
+                         px.x(), px.y(), tip.x(), tip.y());
+    }
+    if (!analyses.is_null())
+      for (const json& a : analyses["analyses"]) {
+        const json& b = a["backward"];
+        const json& f = a["forward"];
+        const Vector3d p0 = b.value("hit", false) ? json_vec3(b["point"], "report") : json_vec3(a["points"].front(), "report");
+        const Vector3d p1 = f.value("hit", false) ? json_vec3(f["point"], "report") : json_vec3(a["points"].back(), "report");
+        const auto q0 = top.to_pixel(p0), q1 = top.to_pixel(p1);
+        svg += fmt::format("<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" "
+                           "stroke=\"#c00\" stroke-width=\"2\" stroke-dasharray=\"6 3\"/>",
+                           q0.x(), q0.y(), q1.x(), q1.y());
+      }
+    if (!markers.is_null())
+      for (const json& m : markers["markers"]) {
+        const auto px = top.to_pixel(json_vec3(m["world"], "report"));
+        svg += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"7\" fill=\"#ffd400\" "
+                           "stroke=\"#000\"/><text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"9\" "
+                           "text-anchor=\"middle\">{}</text>",
+                           px.x(), px.y(), px.x(), px.y() + 3, m.value("number", 0));
+      }
+    svg += "</svg>";
+    h += "<figure>" + svg +
+         "<figcaption>Blue: camera positions and viewing directions; yellow: evidence markers; "
+         "red dashed: bullet trajectories to the surfaces they meet</figcaption></figure>\n";
+  }
+
+  // Table I
+  h += "<h2 id=\"measurements\">Measurements against reference (Table I)</h2>\n";
+  const json table = read_json_or_null(root / "measurements" / "table.json");
+  if (table.is_null()) {
+    h += "<p class=\"note\">No reference measurements were given.</p>\n";
+  } else {
+    h += "<table id=\"measurement-table\"><tr><th>object</th><th>real (cm)</th><th>3D model "
+         "(cm)</th><th>error (mm)</th><th>uncertainty U (mm, k=2)</th><th>|error| &le; U</th>"
+         "<th>end points (snapped)</th></tr>";
+    for (const json& r : table["rows"]) {
+      const bool ok = r.value("within_uncertainty", false);
+      const json& m = r["measurement"];
+      h += fmt::format("<tr><td>{}</td><td class=n>{}</td><td class=n>{}</td><td class=n>{}</td>"
+                       "<td class=n>{}</td><td class=\"{}\">{}</td><td>{} {} &rarr; {} {}</td></tr>",
+                       esc(r.value("name", "")), cm(r.value("real_m", 0.0), 2),
+                       cm(r.value("model_m", 0.0), 2), mm(r.value("error_m", 0.0), 1),
+                       mm(r.value("expanded_uncertainty_m", 0.0), 1), ok ? "ok" : "bad",
+                       ok ? "yes" : "NO", esc(m["a"].value("feature", "")), v3(m["a"]["snapped"]),
+                       esc(m["b"].value("feature", "")), v3(m["b"]["snapped"]));
+    }
+    h += "</table>\n";
+  }
+  if (const json adhoc = read_json_or_null(root / "measurements" / "measurements.json"); !adhoc.is_null()) {
+    h += "<h3>Other measurements</h3><table><tr><th>name</th><th>kind</th><th>value</th><th>U "
+         "(k=2)</th></tr>";
+    for (const json& m : adhoc["measurements"]) {
+      const std::string kind = m.value("kind", "");
+      const bool angle = kind == "plane_angle";
+      h += fmt::format("<tr><td>{}</td><td>{}</td><td class=n>{}</td><td class=n>{}</td></tr>",
+                       esc(m.value("name", "")), esc(kind),
+                       angle ? fmt::format("{:.2f}&deg;", m.value("angle_deg", 0.0))
+                             : fmt::format("{:.4f} m", m.value("distance_m", 0.0)),
+                       angle ? fmt::format("{:.2f}&deg;", m.value("expanded_uncertainty_deg", 0.0))
+                             : fmt::format("{} mm", mm(m.value("expanded_uncertainty_m", 0.0))));
+    }
+    h += "</table>\n";
+  }
+
+  // Evidence
+  h += "<h2 id=\"evidence\">Evidence markers</h2>\n";
+  if (markers.is_null() || markers["markers"].empty()) {
+    h += "<p class=\"note\">No evidence markers yet (<code>locard marker add</code>).</p>\n";
+  } else {
+    h += "<p class=\"note\">Frame: " + esc(markers["frame"].value("description", "")) +
+         ", origin " + v3(markers["frame"]["origin"]) + "</p>";
+    h += "<table id=\"evidence-table\"><tr><th>#</th><th>label</th><th>x</th><th>y</th><th>z</th>"
+         "<th>U (mm)</th><th>note</th></tr>";
+    for (const json& m : markers["markers"]) {
+      const json& l = m["local"];
+      h += fmt::format("<tr><td>{}</td><td>{}</td><td class=n>{:.3f}</td><td class=n>{:.3f}</td>"
+                       "<td class=n>{:.3f}</td><td class=n>{}</td><td>{}</td></tr>",
+                       m.value("number", 0), esc(m.value("label", "")), l[0].get<double>(),
+                       l[1].get<double>(), l[2].get<double>(),
+                       mm(m.value("expanded_uncertainty_m", 0.0)), esc(m.value("note", "")));
+    }
+    h += "</table>\n";
+  }
+
+  // Trajectories
+  h += "<h2 id=\"trajectories\">Bullet trajectory analyses</h2>\n";
+  if (analyses.is_null() || analyses["analyses"].empty()) {
+    h += "<p class=\"note\">No trajectory analyses yet (<code>locard trajectory</code>).</p>\n";
+  } else {
+    h += "<table id=\"trajectory-table\"><tr><th>name</th><th>points</th><th>horizontal "
+         "angle</th><th>vertical angle</th><th>cone half-angle (k=2)</th><th>forward hit</th>"
+         "<th>backward hit</th></tr>";
+    auto hit = [](const json& j) {
+      if (!j.value("hit", false)) return std::string("none");
+      return fmt::format("{} at {:.3f} m, cone radius {} mm", v3(j["point"]),
+                         j.value("distance_m", 0.0), mm(j.value("cone_radius_m", 0.0)));
+    };
+    for (const json& a : analyses["analyses"])
+      h += fmt::format("<tr><td>{}</td><td class=n>{}</td><td class=n>{:.2f}&deg;</td><td "
+                       "class=n>{:.2f}&deg;</td><td class=n>{:.2f}&deg;</td><td>{}</td><td>{}</td></tr>",
+                       esc(a.value("name", "")), a["points"].size(),
+                       a.value("horizontal_angle_deg", 0.0), a.value("vertical_angle_deg", 0.0),
+                       a.value("cone_half_angle_deg", 0.0), hit(a["forward"]), hit(a["backward"]));
+    h += "</table>\n";
+  }
+
+  // Parameters
+  h += "<h2 id=\"parameters\">Parameters</h2>\n<table>";
+  for (const auto& [k, v] : case_json["parameters"].items())
+    h += "<tr><th>" + esc(k) + "</th><td>" + esc(v.dump()) + "</td></tr>";
+  h += "<tr><th>seeds</th><td>" + esc(case_json.value("seeds", json::object()).dump()) + "</td></tr>";
+  h += "<tr><th>sensor</th><td>" + esc(case_json.value("sensor", json::object()).dump()) + "</td></tr>";
+  h += "</table>\n";
+
+  // Processing log
+  h += "<h2 id=\"log\">Processing log</h2>\n<table><tr><th>#</th><th>time (UTC)</th><th>step</th>"
+       "<th>duration (s)</th><th>parameters</th><th>line sha256</th></tr>";
+  {
+    std::ifstream log(root / "log.jsonl");
+    std::string line;
+    while (std::getline(log, line)) {
+      if (line.empty()) continue;
+      json j;
+      try {
+        j = json::parse(line);
+      } catch (const json::parse_error&) {
+        continue;
+      }
+      h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td class=n>{:.2f}</td><td "
+                       "class=hash>{}</td><td class=hash>{}</td></tr>",
+                       j.value("seq", 0), esc(j.value("time", "")), esc(j.value("step", "")),
+                       j.value("duration_s", 0.0), esc(j["parameters"].dump()),
+                       sha256_hex(line).substr(0, 16));
+    }
+  }
+  h += "</table>\n";
+
+  // Hashes
+  h += "<h2 id=\"hashes\">Integrity: SHA-256 of every output and input</h2>\n";
+  h += "<p class=\"note\">Outputs as listed in manifest.json when this report was written (the "
+       "report and the final manifest are hashed in log.jsonl and manifest.json). Check with "
+       "<code>locard verify CASE_DIR</code>.</p>";
+  h += "<table id=\"output-hashes\"><tr><th>case file</th><th>bytes</th><th>sha256</th></tr>";
+  if (const json manifest = read_json_or_null(root / "manifest.json"); !manifest.is_null())
+    for (const auto& [k, v] : manifest["files"].items())
+      if (k.rfind("report/", 0) != 0)
+        h += fmt::format("<tr><td>{}</td><td class=n>{}</td><td class=hash>{}</td></tr>", esc(k),
+                         v.value("bytes", 0), esc(v.value("sha256", "")));
+  h += "</table>\n<table id=\"input-hashes\"><tr><th>input file (under " + esc(in.value("root", "")) +
+       ")</th><th>bytes</th><th>sha256</th></tr>";
+  if (in.contains("files"))
+    for (const json& f : in["files"])
+      h += fmt::format("<tr><td>{}</td><td class=n>{}</td><td class=hash>{}</td></tr>",
+                       esc(f.value("path", "")), f.value("bytes", 0), esc(f.value("sha256", "")));
+  h += "</table>\n</body></html>\n";
+
+  ReportResult result;
+  result.html = folder.path("report/report.html");
+  {
+    AtomicFile f(result.html, false);
+    f.stream() << h;
+    f.commit();
+  }
+  if (!o.pdf) {
+    result.pdf_note = "PDF not requested";
+    fs::remove(root / "report" / "report.pdf");
+    return result;
+  }
+  const fs::path chromium = find_chromium();
+  if (chromium.empty()) {
+    result.pdf_note = "warning: no Chromium found (chromium, chromium-browser, google-chrome or "
+                      "$LOCARD_CHROMIUM); report.pdf was not written - print report.html instead";
+    return result;
+  }
+  const fs::path pdf = root / "report" / "report.pdf";
+  const fs::path tmp_pdf = root / "report" / ".report.pdf.tmp";
+  const fs::path profile = fs::temp_directory_path() / fmt::format("locard-chromium-{}", ::getpid());
+  const fs::path log = fs::temp_directory_path() / fmt::format("locard-chromium-{}.log", ::getpid());
+  const std::string cmd = fmt::format(
+      "timeout 120 '{}' --headless --no-sandbox --disable-gpu --no-first-run "
+      "--user-data-dir='{}' --no-pdf-header-footer --print-to-pdf='{}' 'file://{}' >'{}' 2>&1",
+      chromium.string(), profile.string(), tmp_pdf.string(), fs::absolute(result.html).string(),
+      log.string());
+  const int status = std::system(cmd.c_str());
+  std::error_code ec;
+  fs::remove_all(profile, ec);
+  if (status == 0 && fs::exists(tmp_pdf) && fs::file_size(tmp_pdf) > 0) {
+    fs::rename(tmp_pdf, pdf);
+    result.pdf = pdf;
+    fs::remove(log, ec);
+  } else {
+    fs::remove(tmp_pdf, ec);
+    result.pdf_note = fmt::format("warning: Chromium ({}) could not print the PDF (exit {}; see "
+                                  "{}); report.html is complete",
+                                  chromium.string(), status, log.string());
+  }
+  return result;
+}
+
+}  // namespace locard::forensics
+
+namespace locard::forensics {
+
+ReportResult refresh_case_report(CaseFolder& folder) {
+  const auto t0 = std::chrono::steady_clock::now();
+  const json case_json = read_json_or_null(folder.root() / "case.json");
+  ReportOptions o;
+  if (!case_json.is_null()) {
+    o.title = case_json.value("title", "");
+    const json p = case_json.value("parameters", json::object());
+    o.render_width = p.value("render_width", o.render_width);
+    o.render_height = p.value("render_height", o.render_height);
+    o.pdf = p.value("pdf", o.pdf);
+  }
+  const ReportResult r = write_case_report(folder, o);
+  LogStep s;
+  s.step = "report";
+  s.parameters_json = json{{"pdf", o.pdf}, {"pdf_note", r.pdf_note}}.dump();
+  s.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  s.outputs = {"report/report.html"};
+  if (r.pdf) s.outputs.push_back("report/report.pdf");
+  folder.append_log_step(s);
+  return r;
+}
+
+}  // namespace locard::forensics
