@@ -4,6 +4,9 @@ find_package(TBB REQUIRED)
 find_package(nanoflann REQUIRED)
 find_package(PNG REQUIRED)
 find_package(JPEG REQUIRED)
+# libdeflate: the PNG fast path's inflate (no CMake package in Debian 12, so by name).
+find_path(LIBDEFLATE_INCLUDE_DIR libdeflate.h REQUIRED)
+find_library(LIBDEFLATE_LIBRARY NAMES deflate REQUIRED)
 find_package(nlohmann_json 3 REQUIRED)
 find_package(fmt REQUIRED)
 find_package(embree 3 REQUIRED)
@@ -11,6 +14,7 @@ find_package(CLI11 REQUIRED)
 find_package(Ceres 2 REQUIRED)        # pose-graph optimisation
 find_package(assimp 5 REQUIRED)       # OBJ/FBX/glTF export and re-import
 find_package(CGAL 5 REQUIRED)         # Delaunay/advancing-front triangulation, hole filling
+find_package(OpenSSL REQUIRED)        # SHA-256 of case inputs and outputs (forensics)
 # Bullet rigid-body physics for `locard simulate`, the double-precision build Debian ships
 # beside the float one. Its config file gives paths relative to BULLET_ROOT_DIR and bare
 # library names, so absolute ones are made here (LOCARD_BULLET_*), linked PRIVATE by the library.
@@ -32,3 +36,10 @@ endif()
 if(LOCARD_BUILD_BENCHMARKS)
   find_package(benchmark REQUIRED)
 endif()
+# The viewer's local HTTP server (src/viewer): Debian's cpp-httplib is a compiled library whose
+# header must be read with the macros it was built with (its OpenSSL/zlib/Brotli support changes
+# the classes' layout), so flags and library come from its pkg-config file (no CMake package);
+# linked by absolute path. The server runs on threads.
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(LOCARD_HTTPLIB REQUIRED cpp-httplib)
+find_package(Threads REQUIRED)

@@ -8,7 +8,7 @@ packages=(
   build-essential cmake ninja-build pkg-config git ca-certificates
   # core libraries
   libeigen3-dev libtbb-dev libnanoflann-dev libcli11-dev libspdlog-dev libfmt-dev
-  nlohmann-json3-dev libpng-dev libjpeg-dev libembree-dev libceres-dev libassimp-dev libcgal-dev
+  nlohmann-json3-dev libpng-dev libjpeg-dev libdeflate-dev libembree-dev libceres-dev libassimp-dev libcgal-dev
   # case integrity (SHA-256), local viewer server, physics scenarios
   libssl-dev libcpp-httplib-dev libbullet-dev
   # browser tests of the report and viewer (headless Chromium driven by Playwright)

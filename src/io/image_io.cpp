@@ -3,6 +3,8 @@
 #include <locard/core/atomic_file.hpp>
 #include <locard/core/error.hpp>
 
+#include "png_fast.hpp"
+
 #include <bit>
 #include <cerrno>
 #include <csetjmp>
@@ -383,6 +385,19 @@ ImageFileInfo read_image_info(const std::filesystem::path& path) {
 ColorImage read_color_image(const std::filesystem::path& path) {
   CFile file(path, "rb");
   if (sniff(path, file.get()) == FileKind::Jpeg) return JpegReader(path, file.get()).read_rgb8();
+  detail::PngFastImage fast;
+  if (detail::decode_png_fast(path, detail::read_whole_file(path), detail::PngFastLayout::Rgb8,
+                              fast)) {
+    ColorImage image(fast.width, fast.height);
+    std::memcpy(image.data().data(), fast.pixels.data(), fast.pixels.size());
+    return image;
+  }
+  return detail::read_color_image_libpng(path);
+}
+
+ColorImage detail::read_color_image_libpng(const std::filesystem::path& path) {
+  CFile file(path, "rb");
+  if (sniff(path, file.get()) == FileKind::Jpeg) return JpegReader(path, file.get()).read_rgb8();
   PngReader png(path, file.get());
   png.set_rgb8_transforms();
   ColorImage image(png.width(), png.height());
@@ -391,6 +406,20 @@ ColorImage read_color_image(const std::filesystem::path& path) {
 }
 
 DepthImage read_depth_image(const std::filesystem::path& path) {
+  CFile file(path, "rb");
+  if (sniff(path, file.get()) == FileKind::Jpeg)
+    throw_input_error(path, "depth image is a JPEG, expected a 16-bit single-channel PNG");
+  detail::PngFastImage fast;
+  if (detail::decode_png_fast(path, detail::read_whole_file(path), detail::PngFastLayout::Gray16,
+                              fast)) {
+    DepthImage image(fast.width, fast.height);
+    std::memcpy(image.data().data(), fast.pixels.data(), fast.pixels.size());
+    return image;
+  }
+  return detail::read_depth_image_libpng(path);
+}
+
+DepthImage detail::read_depth_image_libpng(const std::filesystem::path& path) {
   CFile file(path, "rb");
   if (sniff(path, file.get()) == FileKind::Jpeg)
     throw_input_error(path, "depth image is a JPEG, expected a 16-bit single-channel PNG");

@@ -1,0 +1,42 @@
+#pragma once
+// A fast decoder for the two PNG layouts RGB-D sequences are made of: 16-bit gray depth and
+// 8-bit RGB colour, non-interlaced. Inflate is libdeflate's (about twice zlib's speed, and the
+// whole stream is inflated in one call instead of libpng's row-by-row pulls); row filters are
+// undone in place. Anything else (palettes, alpha, interlacing, other bit depths) is left to
+// libpng: decode_png_fast() then returns false and touches nothing.
+//
+// Error behaviour follows libpng's: a bad signature, a critical chunk with a wrong CRC, a
+// truncated file or a stream that inflates to the wrong size is an InputError naming the file.
+
+#include <locard/core/image.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <vector>
+
+namespace locard::detail {
+
+enum class PngFastLayout { Gray16, Rgb8 };
+
+struct PngFastImage {
+  int width = 0;
+  int height = 0;
+  // Native-endian samples for Gray16, interleaved RGB for Rgb8, rows packed.
+  std::vector<std::uint8_t> pixels;
+};
+
+// Decodes `bytes` (a whole PNG file read from `path`) when its layout is `want`; returns false
+// (and leaves `out` alone) when the file has another layout, so the caller can use libpng.
+bool decode_png_fast(const std::filesystem::path& path, const std::vector<std::uint8_t>& bytes,
+                     PngFastLayout want, PngFastImage& out);
+
+// Reads a whole file; InputError naming the file when it cannot be read.
+std::vector<std::uint8_t> read_whole_file(const std::filesystem::path& path);
+
+// The libpng decoders behind read_color_image/read_depth_image, for every other layout; tests
+// compare the fast path with them.
+ColorImage read_color_image_libpng(const std::filesystem::path& path);
+DepthImage read_depth_image_libpng(const std::filesystem::path& path);
+
+}  // namespace locard::detail
