@@ -341,18 +341,25 @@ long line_of(std::string_view text, std::size_t byte) {
 
 // JSON has no NaN or Infinity, so `"mass": NaN` is a syntax error to the parser. Find the key
 // in front of such a token, so the message names it like any other non-finite value.
+std::string key_before(std::string_view text, std::size_t start);
+
 std::string non_finite_key(std::string_view text, std::size_t byte) {
-  byte = std::min(byte, text.size());
-  const std::size_t colon = text.rfind(':', byte);
-  if (colon == std::string_view::npos) return {};
-  std::size_t t = colon + 1;
-  while (t < text.size() && std::isspace(static_cast<unsigned char>(text[t]))) ++t;
+  auto token_char = [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '+' || c == '.';
+  };
+  std::size_t start = std::min(byte, text.size());
+  while (start > 0 && token_char(text[start - 1])) --start;
   std::string token;
-  while (t < text.size() && (std::isalnum(static_cast<unsigned char>(text[t])) || text[t] == '-' ||
-                             text[t] == '+'))
-    token += static_cast<char>(std::tolower(static_cast<unsigned char>(text[t++])));
+  for (std::size_t t = start; t < text.size() && token_char(text[t]); ++t)
+    token += static_cast<char>(std::tolower(static_cast<unsigned char>(text[t])));
   if (!token.empty() && (token[0] == '-' || token[0] == '+')) token.erase(0, 1);
-  if (token != "nan" && token != "inf" && token != "infinity") return {};
+  if (token.rfind("nan", 0) != 0 && token.rfind("inf", 0) != 0) return {};
+  return key_before(text, start);
+}
+
+std::string key_before(std::string_view text, std::size_t start) {
+  const std::size_t colon = text.rfind(':', start);
+  if (colon == std::string_view::npos) return {};
   const std::size_t close = text.rfind('"', colon);
   if (close == std::string_view::npos || close == 0) return {};
   const std::size_t open = text.rfind('"', close - 1);
@@ -372,6 +379,16 @@ json parse_json(std::string_view text, const fs::path& source) {
     std::string what = e.what();
     if (const auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
     throw_input_error(source, "not valid JSON: " + what, line);
+  } catch (const json::out_of_range& e) {
+    // "number overflow parsing '1e999'": a number beyond double range.
+    std::string what = e.what();
+    const std::size_t q0 = what.find('\''), q1 = what.rfind('\'');
+    const std::string number = q0 != q1 ? what.substr(q0 + 1, q1 - q0 - 1) : std::string();
+    const std::size_t at = number.empty() ? std::string_view::npos : text.find(number);
+    const std::string key = at == std::string_view::npos ? std::string() : key_before(text, at);
+    throw_input_error(source, (key.empty() ? std::string() : "key '" + key + "': ") + "the number " +
+                                  number + " is not a finite double",
+                      at == std::string_view::npos ? 0 : line_of(text, at));
   }
 }
 
@@ -442,6 +459,11 @@ std::vector<TrajectoryLine> read_trajectory_analyses(const fs::path& path) {
     const json& pts = a.at("points");
     line.a = analysis_point(pts[0], where + ".points[0]", path);
     line.b = analysis_point(pts[1], where + ".points[1]", path);
+    // A rod fitted to three or more points: its fitted direction (first -> last), when given.
+    if (a.contains("direction")) {
+      const Eigen::Vector3d d = analysis_point(a.at("direction"), where + ".direction", path);
+      if (d.norm() > 1e-9) line.b = line.a + d.normalized();
+    }
     if ((line.b - line.a).norm() < 1e-6)
       throw_input_error(path, where + " \"" + line.name + "\": the first two points coincide");
     lines.push_back(line);

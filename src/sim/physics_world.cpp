@@ -30,6 +30,10 @@ constexpr double kContactGap = 0.1;              // s: untouched this long ends 
 constexpr double kRestLinear = 0.02;             // m/s
 constexpr double kRestAngular = 0.1;             // rad/s
 constexpr double kRestWindow = 0.25;             // s quiet before a rest is reported
+// A ragdoll's small limbs keep trembling against the floor under their joint limits (a few
+// tenths of a radian per second); looser thresholds let it settle, and Bullet puts it to sleep.
+constexpr double kRagdollRestLinear = 0.05;      // m/s
+constexpr double kRagdollRestAngular = 0.5;      // rad/s
 constexpr double kSurfaceSkip = 0.001;           // m: hits this close to a muzzle are ignored
 constexpr double kExitSkip = 0.05;  // m: back faces ignored near a muzzle on a surface
 
@@ -409,6 +413,8 @@ class World {
                         0.0, false, std::move(track));
       btRigidBody& rb = *bodies_[ids[k]].rigid;
       rb.setDamping(0.05, 0.85);
+      rb.setSleepingThresholds(kRagdollRestLinear, kRagdollRestAngular);
+      rb.setDeactivationTime(0.8);
       rb.setLinearVelocity(bt(p.velocity));
       // A seeded wobble of a few degrees per second, so a symmetric stance does not fold
       // exactly straight down.
@@ -809,7 +815,10 @@ class World {
         v = std::max<double>(v, bodies_[id].rigid->getLinearVelocity().length());
         w = std::max<double>(w, bodies_[id].rigid->getAngularVelocity().length());
       }
-      if (v < kRestLinear && w < kRestAngular) {
+      const bool ragdoll = o.kind == "ragdoll";
+      const double rest_v = ragdoll ? kRagdollRestLinear : kRestLinear;
+      const double rest_w = ragdoll ? kRagdollRestAngular : kRestAngular;
+      if (v < rest_v && w < rest_w) {
         if (o.quiet_since < 0.0) o.quiet_since = t;
         if (!o.rest_reported && t - o.quiet_since >= kRestWindow - 1e-9) {
           o.rest_reported = true;
@@ -824,7 +833,7 @@ class World {
           e.rotation = eig(pose.getRotation());
           result_.events.push_back(e);
         }
-      } else if (v > 2.0 * kRestLinear || w > 2.0 * kRestAngular) {
+      } else if (v > 2.0 * rest_v || w > 2.0 * rest_w) {
         o.quiet_since = -1.0;  // moving again: a later rest is a new event
         o.rest_reported = false;
       }

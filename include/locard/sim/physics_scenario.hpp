@@ -113,7 +113,9 @@ struct TrajectoryLine {
 
 // Reads CASE_DIR/trajectories/analyses.json: an array of analyses, or an object holding one
 // under "analyses"; each has a "name" (or "id") and "points" (at least two [x, y, z] or
-// {"position": [x, y, z]}). Throws InputError naming the file and the analysis.
+// {"position": [x, y, z]}); the line starts at the first point and runs along "direction" when
+// the analysis has one (a fitted rod), else towards the second point. Throws InputError naming
+// the file and the analysis.
 std::vector<TrajectoryLine> read_trajectory_analyses(const std::filesystem::path& path);
 
 // Reads and validates a scenario file. Mesh objects' PLY files are resolved against the
