@@ -23,7 +23,13 @@ void register_all(CLI::App& app, GlobalOptions& global) {
   register_eval_mesh(app, global);
   register_align(app, global);
   register_eval_trajectory(app, global);
+  register_reconstruct(app, global);
+  register_verify(app, global);
+  register_measure(app, global);
+  register_marker(app, global);
+  register_trajectory(app, global);
   register_simulate(app, global);
+  register_view(app, global);
 }
 
 int run_selected(CLI::App& app) {

@@ -29,6 +29,12 @@ void register_mesh(CLI::App&, GlobalOptions&);
 void register_eval_mesh(CLI::App&, GlobalOptions&);
 void register_align(CLI::App& app, GlobalOptions& global);
 void register_eval_trajectory(CLI::App&, GlobalOptions&);
+void register_reconstruct(CLI::App&, GlobalOptions&);
+void register_verify(CLI::App&, GlobalOptions&);
+void register_measure(CLI::App&, GlobalOptions&);
+void register_marker(CLI::App&, GlobalOptions&);
+void register_trajectory(CLI::App&, GlobalOptions&);
 void register_simulate(CLI::App&, GlobalOptions&);
+void register_view(CLI::App&, GlobalOptions&);
 
 }  // namespace locard::cli

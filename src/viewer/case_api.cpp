@@ -1,0 +1,429 @@
+// The viewer's JSON API over one case folder (see case_api.hpp). Reads go straight to the
+// case's files; everything that adds to the case (markers, trajectory analyses) goes through
+// the forensics library, which appends to log.jsonl and rewrites manifest.json exactly as the
+// CLI does.
+#include <locard/viewer/case_api.hpp>
+
+#include <locard/core/atomic_file.hpp>
+#include <locard/core/error.hpp>
+#include <locard/forensics/case_folder.hpp>
+#include <locard/forensics/case_model.hpp>
+#include <locard/forensics/evidence_markers.hpp>
+#include <locard/forensics/measurement.hpp>
+#include <locard/forensics/trajectory_analysis.hpp>
+#include <locard/io/ply.hpp>
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <ctime>
+#include <fstream>
+
+namespace locard::viewer {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+ApiResponse json_response(const json& body, int status = 200) {
+  return ApiResponse{status, "application/json", body.dump()};
+}
+ApiResponse error_response(int status, const std::string& message) {
+  return json_response(json{{"error", message}}, status);
+}
+
+// Parses a file as JSON; nullopt when it is missing or malformed.
+std::optional<json> read_json_file(const fs::path& path) {
+  std::ifstream in(path);
+  if (!in) return std::nullopt;
+  json out = json::parse(in, nullptr, /*allow_exceptions=*/false);
+  if (out.is_discarded()) return std::nullopt;
+  return out;
+}
+
+// A request's JSON body; throws InputError (-> 400) when it is not a JSON object.
+json parse_body(std::string_view body) {
+  json out = json::parse(body, nullptr, /*allow_exceptions=*/false);
+  if (out.is_discarded() || !out.is_object())
+    throw InputError("request body: expected a JSON object");
+  return out;
+}
+
+// body[key] as a finite 3-vector; throws InputError (-> 400) naming the key otherwise.
+Eigen::Vector3d point_field(const json& body, const char* key) {
+  const auto it = body.find(key);
+  if (it == body.end() || !it->is_array() || it->size() != 3)
+    throw InputError(fmt::format("'{}': expected [x, y, z] in metres", key));
+  Eigen::Vector3d p;
+  for (int i = 0; i < 3; ++i) {
+    const json& v = (*it)[static_cast<std::size_t>(i)];
+    if (!v.is_number()) throw InputError(fmt::format("'{}': coordinate {} is not a number", key, i));
+    p[i] = v.get<double>();
+    if (!std::isfinite(p[i])) throw InputError(fmt::format("'{}': coordinate {} is not finite", key, i));
+  }
+  return p;
+}
+
+json to_json(const Eigen::Vector3d& p) { return json::array({p.x(), p.y(), p.z()}); }
+
+json to_json(const forensics::SnappedPoint& p) {
+  return json{{"given", to_json(p.given)},
+              {"snapped", to_json(p.snapped)},
+              {"feature", p.feature},
+              {"standard_uncertainty_m", std::sqrt(std::max(0.0, p.covariance.trace()))},
+              {"views", p.views},
+              {"points", p.points},
+              {"planes", p.planes}};
+}
+
+json to_json(const forensics::EvidenceMarker& m) {
+  return json{{"number", m.number},
+              {"label", m.label},
+              {"note", m.note},
+              {"world", to_json(m.world)},
+              {"snapped", m.snapped},
+              {"expanded_uncertainty_m", m.expanded_uncertainty_m},
+              {"created", m.created}};
+}
+
+json to_json(const forensics::SurfaceHit& h) {
+  if (!h.hit) return json{{"hit", false}};
+  return json{{"hit", true},
+              {"point", to_json(h.point)},
+              {"normal", to_json(h.normal)},
+              {"distance_m", h.distance_m},
+              {"incidence_deg", h.incidence_deg},
+              {"cone_radius_m", h.cone_radius_m}};
+}
+
+json to_json(const forensics::TrajectoryAnalysis& t) {
+  json points = json::array();
+  for (const Eigen::Vector3d& p : t.points) points.push_back(to_json(p));
+  return json{{"name", t.name},
+              {"points", points},
+              {"origin", to_json(t.origin)},
+              {"direction", to_json(t.direction)},
+              {"horizontal_angle_deg", t.horizontal_angle_deg},
+              {"vertical_angle_deg", t.vertical_angle_deg},
+              {"fit_rms_m", t.fit_rms_m},
+              {"point_sigma_m", t.point_sigma_m},
+              {"angular_sigma_deg", t.angular_sigma_deg},
+              {"cone_half_angle_deg", t.cone_half_angle_deg},
+              {"forward", to_json(t.forward)},
+              {"backward", to_json(t.backward)}};
+}
+
+// Expanded (k) uncertainty of a point's position, as `locard marker add` reports it: k times
+// the radial standard uncertainty sqrt(trace(covariance)).
+double expanded_point_uncertainty(const Eigen::Matrix3d& covariance, double k) {
+  return k * std::sqrt(std::max(0.0, covariance.trace()));
+}
+
+std::string utc_now_iso8601() {
+  const std::time_t now = std::chrono::system_clock::to_time_t(std::chrono::system_clock::now());
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buffer[32];
+  std::strftime(buffer, sizeof buffer, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buffer;
+}
+
+std::string optional_string(const json& body, const char* key, std::size_t max_length) {
+  const auto it = body.find(key);
+  if (it == body.end() || it->is_null()) return {};
+  if (!it->is_string()) throw InputError(fmt::format("'{}': expected a string", key));
+  std::string out = it->get<std::string>();
+  if (out.size() > max_length)
+    throw InputError(fmt::format("'{}': longer than {} characters", key, max_length));
+  return out;
+}
+
+template <typename T>
+void append_bytes(std::string& out, const T* data, std::size_t count) {
+  const std::size_t offset = out.size();
+  out.resize(offset + sizeof(T) * count);
+  if (count > 0) std::memcpy(out.data() + offset, data, sizeof(T) * count);
+}
+
+bool is_regular(const fs::path& p) {
+  std::error_code ec;
+  return fs::is_regular_file(p, ec);
+}
+
+}  // namespace
+
+struct CaseApi::Impl {
+  fs::path root;  // canonical
+  // Decimated cloud buffer, built on first request per `max` value (the case is read-only
+  // for the cloud while the viewer runs).
+  std::size_t points_max = 0;
+  std::string points_buffer;
+
+  // The measurable model (mesh, views, pose covariances, sensor noise), loaded on the first
+  // request that needs it.
+  std::optional<forensics::CaseModel> model_cache;
+
+  // Throws InputError (-> 400) naming what is missing when the folder is not a case.
+  forensics::CaseFolder folder() const { return forensics::CaseFolder::open(root); }
+  const forensics::CaseModel& model() {
+    if (!model_cache) model_cache.emplace(forensics::CaseModel::load(folder()));
+    return *model_cache;
+  }
+};
+
+CaseApi::CaseApi(fs::path case_dir) : impl_(std::make_unique<Impl>()) {
+  std::error_code ec;
+  if (!fs::is_directory(case_dir, ec)) throw_input_error(case_dir, "no such case folder");
+  impl_->root = fs::canonical(case_dir);
+}
+
+CaseApi::~CaseApi() = default;
+
+const fs::path& CaseApi::case_dir() const { return impl_->root; }
+
+std::optional<fs::path> CaseApi::resolve_case_file(std::string_view relative) const {
+  if (relative.empty() || relative.front() == '/' ||
+      relative.find('\\') != std::string_view::npos ||
+      relative.find('\0') != std::string_view::npos)
+    return std::nullopt;
+  const fs::path rel(relative);
+  for (const fs::path& part : rel) {
+    if (part == ".." || part == "." || part.empty()) return std::nullopt;
+  }
+  std::error_code ec;
+  const fs::path full = fs::canonical(impl_->root / rel, ec);
+  if (ec) return std::nullopt;
+  // Inside the case folder after every symbolic link is followed.
+  const auto [root_end, full_it] =
+      std::mismatch(impl_->root.begin(), impl_->root.end(), full.begin(), full.end());
+  if (root_end != impl_->root.end() || full_it == full.end()) return std::nullopt;
+  if (!fs::is_regular_file(full, ec)) return std::nullopt;
+  return full;
+}
+
+ApiResponse CaseApi::handle(std::string_view method, std::string_view path, std::string_view body,
+                            std::size_t max_points) {
+  try {
+    const bool get = method == "GET";
+    const bool post = method == "POST";
+    if (get && path == "/api/case") return case_summary();
+    if (get && path == "/api/points") return points(max_points);
+    if (post && path == "/api/measure") return measure(body);
+    if (get && path == "/api/markers") return markers();
+    if (post && path == "/api/markers") return add_marker(body);
+    if (post && path == "/api/trajectory") return trajectory(body);
+    return error_response(404, fmt::format("no such API call: {} {}", method, path));
+  } catch (const InputError& e) {
+    return error_response(400, e.what());
+  }
+}
+
+ApiResponse CaseApi::case_summary() {
+  const fs::path& root = impl_->root;
+  json out = json::object();
+  out["case_dir"] = root.string();
+  if (auto c = read_json_file(root / "case.json")) out["case"] = std::move(*c);
+  json view = json::object();
+  view["mesh_glb"] = is_regular(root / "mesh/mesh.glb");
+  view["mesh_ply"] = is_regular(root / "mesh/mesh.ply");
+  view["cloud"] = is_regular(root / "cloud/registered.ply");
+  if (auto m = read_json_file(root / "mesh/mesh.json")) {
+    view["mesh_info"] = *m;
+    view["inferred_triangles"] = m->value("inferred_triangles", 0);
+  }
+  json simulations = json::array();
+  std::error_code ec;
+  if (fs::is_directory(root / "simulations", ec)) {
+    std::vector<std::string> names;
+    for (const auto& entry : fs::directory_iterator(root / "simulations", ec))
+      if (entry.is_directory()) names.push_back(entry.path().filename().string());
+    std::sort(names.begin(), names.end());
+    for (const std::string& name : names) {
+      const fs::path dir = root / "simulations" / name;
+      json s = {{"name", name}};
+      if (is_regular(dir / "animation.glb")) s["animation"] = "simulations/" + name + "/animation.glb";
+      if (is_regular(dir / "events.json")) s["events"] = "simulations/" + name + "/events.json";
+      if (is_regular(dir / "scenario.json")) s["scenario"] = "simulations/" + name + "/scenario.json";
+      simulations.push_back(std::move(s));
+    }
+  }
+  view["simulations"] = std::move(simulations);
+  out["view"] = std::move(view);
+  return json_response(out);
+}
+
+ApiResponse CaseApi::points(std::size_t max_points) {
+  if (max_points == 0) max_points = 1'000'000;
+  if (!impl_->points_buffer.empty() && impl_->points_max == max_points)
+    return ApiResponse{200, "application/octet-stream", impl_->points_buffer};
+  const fs::path path = impl_->root / "cloud/registered.ply";
+  if (!is_regular(path)) return error_response(404, "the case has no cloud/registered.ply");
+  const PointCloud cloud = read_ply(path);
+  const std::size_t total = cloud.size();
+  const std::size_t stride = total <= max_points ? 1 : (total + max_points - 1) / max_points;
+  const std::size_t n = total == 0 ? 0 : (total + stride - 1) / stride;
+  const ScalarField* segment = cloud.find_scalar("segment");
+
+  std::vector<float> xyz;
+  std::vector<std::uint8_t> rgb;
+  std::vector<std::int32_t> labels;
+  xyz.reserve(3 * n);
+  rgb.reserve(3 * n + 3);
+  if (segment) labels.reserve(n);
+  for (std::size_t i = 0; i < total; i += stride) {
+    const Eigen::Vector3f& p = cloud.positions[i];
+    xyz.insert(xyz.end(), {p.x(), p.y(), p.z()});
+    const Rgb8 c = cloud.has_colors() ? cloud.colors[i] : Rgb8{200, 200, 200};
+    rgb.insert(rgb.end(), {c.r, c.g, c.b});
+    if (segment) labels.push_back(static_cast<std::int32_t>(std::lround(segment->values[i])));
+  }
+  while (rgb.size() % 4 != 0) rgb.push_back(0);
+
+  std::string out = "LCPT";
+  const std::uint32_t header[3] = {static_cast<std::uint32_t>(n), segment ? 1u : 0u,
+                                   static_cast<std::uint32_t>(total)};
+  append_bytes(out, header, 3);
+  append_bytes(out, xyz.data(), xyz.size());
+  append_bytes(out, rgb.data(), rgb.size());
+  append_bytes(out, labels.data(), labels.size());
+  impl_->points_max = max_points;
+  impl_->points_buffer = out;
+  return ApiResponse{200, "application/octet-stream", std::move(out)};
+}
+
+ApiResponse CaseApi::measure(std::string_view body) {
+  const json request = parse_body(body);
+  const Eigen::Vector3d a = point_field(request, "a");
+  const Eigen::Vector3d b = point_field(request, "b");
+  const bool save = request.value("save", true);
+  const std::string given_name = optional_string(request, "name", 200);
+  const auto start = std::chrono::steady_clock::now();
+  const forensics::PointToPointMeasurement m =
+      forensics::measure_point_to_point(impl_->model(), a, b);
+  json out{{"a", to_json(m.a)},
+           {"b", to_json(m.b)},
+           {"distance_m", m.distance_m},
+           {"standard_uncertainty_m", m.standard_uncertainty_m},
+           {"expanded_uncertainty_m", m.expanded_uncertainty_m},
+           {"coverage_factor", m.coverage_factor}};
+  if (!save) return json_response(out);
+  // Saved like `locard measure`: appended to measurements/measurements.json, one log step.
+  forensics::CaseFolder folder = impl_->folder();
+  const std::string name =
+      given_name.empty() ? fmt::format("viewer {}", utc_now_iso8601()) : given_name;
+  forensics::LogStep step;
+  step.step = "measure";
+  step.parameters_json = json{{"source", "viewer"},
+                              {"name", name},
+                              {"kind", "point-to-point"},
+                              {"a", to_json(a)},
+                              {"b", to_json(b)}}
+                             .dump();
+  step.outputs = {forensics::append_measurement(folder, name, m)};
+  step.duration_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  out["name"] = name;
+  out["log_seq"] = folder.append_log_step(step);
+  return json_response(out, 201);
+}
+
+ApiResponse CaseApi::markers() {
+  const forensics::MarkerSet set = forensics::read_markers(impl_->root / "evidence/markers.json");
+  json list = json::array();
+  for (const forensics::EvidenceMarker& m : set.markers) {
+    json j = to_json(m);
+    j["local"] = to_json(set.frame.to_local(m.world));
+    list.push_back(std::move(j));
+  }
+  return json_response(json{{"frame", set.frame.description}, {"markers", std::move(list)}});
+}
+
+ApiResponse CaseApi::add_marker(std::string_view body) {
+  const auto start = std::chrono::steady_clock::now();
+  const json request = parse_body(body);
+  const Eigen::Vector3d position = point_field(request, "position");
+  const bool snap = request.value("snap", true);
+  forensics::EvidenceMarker marker;
+  marker.label = optional_string(request, "label", 200);
+  marker.note = optional_string(request, "note", 2000);
+  marker.world = position;
+  marker.created = utc_now_iso8601();
+  if (snap) {
+    const forensics::SnappedPoint p = forensics::snap_point(impl_->model(), position);
+    marker.world = p.snapped;
+    marker.snapped = true;
+    marker.expanded_uncertainty_m = expanded_point_uncertainty(p.covariance, 2.0);
+  }
+
+  forensics::CaseFolder folder = impl_->folder();
+  const fs::path json_path = folder.path("evidence/markers.json");
+  forensics::MarkerSet set = forensics::read_markers(json_path);
+  const forensics::EvidenceMarker added = set.add(marker);
+  forensics::write_markers(json_path, set);
+
+  forensics::LogStep step;
+  step.step = "marker add";
+  step.parameters_json = json{{"source", "viewer"},
+                              {"number", added.number},
+                              {"label", added.label},
+                              {"note", added.note},
+                              {"position", to_json(position)},
+                              {"snap", snap}}
+                             .dump();
+  step.outputs = {"evidence/markers.json", "evidence/markers.csv"};
+  step.duration_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const std::size_t seq = folder.append_log_step(step);
+  json out = to_json(added);
+  out["local"] = to_json(set.frame.to_local(added.world));
+  out["log_seq"] = seq;
+  return json_response(out, 201);
+}
+
+ApiResponse CaseApi::trajectory(std::string_view body) {
+  const auto start = std::chrono::steady_clock::now();
+  const json request = parse_body(body);
+  forensics::TrajectoryInput input;
+  input.points = {point_field(request, "a"), point_field(request, "b")};
+  input.name = optional_string(request, "name", 200);
+  const bool save = request.value("save", true);
+
+  const fs::path relative = "trajectories/analyses.json";
+  std::vector<forensics::TrajectoryAnalysis> analyses;
+  if (is_regular(impl_->root / relative))
+    analyses = forensics::read_trajectory_analyses(impl_->root / relative);
+  if (input.name.empty()) input.name = fmt::format("T{}", analyses.size() + 1);
+  const forensics::TrajectoryAnalysis analysis =
+      forensics::analyse_trajectory(&impl_->model(), input);
+  json out = to_json(analysis);
+  if (save) {
+    forensics::CaseFolder folder = impl_->folder();
+    analyses.push_back(analysis);
+    {
+      AtomicFile file(folder.path(relative), false);
+      file.stream() << forensics::trajectory_analyses_json(analyses);
+      file.commit();
+    }
+    forensics::LogStep step;
+    step.step = "trajectory";
+    step.parameters_json = json{{"source", "viewer"},
+                                {"name", input.name},
+                                {"points", json::array({to_json(input.points[0]),
+                                                        to_json(input.points[1])})},
+                                {"coverage_factor", input.coverage_factor},
+                                {"min_gap_m", input.min_gap_m},
+                                {"max_range_m", input.max_range_m}}
+                               .dump();
+    step.outputs = {relative};
+    step.duration_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    out["log_seq"] = folder.append_log_step(step);
+  }
+  return json_response(out, save ? 201 : 200);
+}
+
+}  // namespace locard::viewer

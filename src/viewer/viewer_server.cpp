@@ -1,0 +1,248 @@
+// The viewer's HTTP layer: cpp-httplib bound to 127.0.0.1, a token check before routing, and
+// three kinds of route (the app, case files, the JSON API). Everything case-specific is in
+// case_api.cpp; this file only moves bytes and refuses what is not allowed.
+#include <locard/viewer/viewer_server.hpp>
+
+#include <locard/core/error.hpp>
+#include <locard/viewer/case_api.hpp>
+
+#include <fmt/format.h>
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <cstdlib>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <random>
+#include <sstream>
+#include <thread>
+
+namespace locard::viewer {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kLoopback = "127.0.0.1";
+
+std::string mime_type(const fs::path& path) {
+  static const std::map<std::string, std::string> types = {
+      {".html", "text/html; charset=utf-8"},
+      {".js", "text/javascript; charset=utf-8"},
+      {".mjs", "text/javascript; charset=utf-8"},
+      {".css", "text/css; charset=utf-8"},
+      {".json", "application/json"},
+      {".jsonl", "application/x-ndjson"},
+      {".glb", "model/gltf-binary"},
+      {".gltf", "model/gltf+json"},
+      {".svg", "image/svg+xml"},
+      {".png", "image/png"},
+      {".jpg", "image/jpeg"},
+      {".csv", "text/csv; charset=utf-8"},
+      {".txt", "text/plain; charset=utf-8"},
+      {".pdf", "application/pdf"},
+  };
+  std::string ext = path.extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  const auto it = types.find(ext);
+  return it == types.end() ? "application/octet-stream" : it->second;
+}
+
+// Reads a whole file; false when it cannot be opened or read.
+bool read_file(const fs::path& path, std::string& out) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  std::ostringstream buffer;
+  buffer << in.rdbuf();
+  if (in.bad()) return false;
+  out = std::move(buffer).str();
+  return true;
+}
+
+void set_common_headers(httplib::Response& res) {
+  res.set_header("Cache-Control", "no-store");
+  res.set_header("X-Content-Type-Options", "nosniff");
+  res.set_header("Referrer-Policy", "no-referrer");
+  // Only this origin: no CDN, no remote font or script. blob:/data: for three.js textures.
+  res.set_header("Content-Security-Policy",
+                 "default-src 'self'; img-src 'self' blob: data:; connect-src 'self' blob: "
+                 "data:; style-src 'self' 'unsafe-inline'; worker-src 'self' blob:; "
+                 "object-src 'none'; base-uri 'none'; frame-ancestors 'none'");
+}
+
+void send_error(httplib::Response& res, int status, const std::string& message) {
+  res.status = status;
+  res.set_content(nlohmann::json{{"error", message}}.dump(), "application/json");
+}
+
+}  // namespace
+
+std::string random_token() {
+  std::random_device device;
+  std::array<std::uint32_t, 4> words{};
+  for (auto& w : words) w = device();
+  std::string out;
+  for (std::uint32_t w : words) out += fmt::format("{:08x}", w);
+  return out;
+}
+
+bool token_matches(std::string_view expected, std::string_view given) {
+  if (expected.empty()) return false;
+  unsigned diff = expected.size() == given.size() ? 0u : 1u;
+  for (std::size_t i = 0; i < expected.size(); ++i) {
+    const char g = i < given.size() ? given[i] : '\0';
+    diff |= static_cast<unsigned>(static_cast<unsigned char>(expected[i]) ^
+                                  static_cast<unsigned char>(g));
+  }
+  return diff == 0;
+}
+
+fs::path find_web_root(const fs::path& executable) {
+  std::vector<fs::path> candidates;
+  if (const char* env = std::getenv("LOCARD_VIEWER_DIR"); env && *env) candidates.emplace_back(env);
+  if (!executable.empty()) {
+    std::error_code ec;
+    const fs::path exe = fs::weakly_canonical(executable, ec);
+    if (!ec) candidates.push_back(exe.parent_path().parent_path() / "share/locard/viewer");
+  }
+#ifdef LOCARD_VIEWER_BUILD_DIR
+  candidates.emplace_back(LOCARD_VIEWER_BUILD_DIR);
+#endif
+  for (const fs::path& c : candidates) {
+    std::error_code ec;
+    if (fs::is_regular_file(c / "index.html", ec)) return c;
+  }
+  return {};
+}
+
+struct ViewerServer::Impl {
+  ViewerServerOptions options;
+  CaseApi api;
+  httplib::Server server;
+  std::thread thread;
+  std::uint16_t port = 0;
+  std::mutex api_mutex;  // the API reads caches and appends to the case log: one at a time
+
+  explicit Impl(ViewerServerOptions o) : options(std::move(o)), api(options.case_dir) {}
+
+  void serve_app_file(const std::string& name, httplib::Response& res) {
+    // The bundle's own files only: a flat name, no separators.
+    if (name.empty() || name.find('/') != std::string::npos ||
+        name.find('\\') != std::string::npos || name.find("..") != std::string::npos) {
+      send_error(res, 403, "refused");
+      return;
+    }
+    std::string body;
+    const fs::path path = options.web_root / name;
+    std::error_code ec;
+    if (!fs::is_regular_file(path, ec) || !read_file(path, body)) {
+      send_error(res, 404, "not found");
+      return;
+    }
+    // The page's own sub-resources (app.js, app.css) carry the token too: index.html names
+    // them with a {{token}} placeholder, filled in here for a request that had the token.
+    if (name == "index.html") {
+      for (std::size_t at; (at = body.find("{{token}}")) != std::string::npos;)
+        body.replace(at, 9, options.token);
+    }
+    res.set_content(std::move(body), mime_type(path).c_str());
+  }
+
+  void install_routes() {
+    server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
+      set_common_headers(res);
+      std::string given = req.get_param_value("token");
+      if (given.empty()) given = req.get_header_value("X-Locard-Token");
+      if (!token_matches(options.token, given)) {
+        send_error(res, 403, "forbidden: this server answers only requests that carry its "
+                             "token (the URL `locard view` printed)");
+        return httplib::Server::HandlerResponse::Handled;
+      }
+      return httplib::Server::HandlerResponse::Unhandled;
+    });
+    server.Get("/", [this](const httplib::Request&, httplib::Response& res) {
+      serve_app_file("index.html", res);
+    });
+    server.Get(R"(/([A-Za-z0-9_.\-]+))", [this](const httplib::Request& req,
+                                                 httplib::Response& res) {
+      serve_app_file(req.matches[1].str(), res);
+    });
+    server.Get(R"(/case/(.+))", [this](const httplib::Request& req, httplib::Response& res) {
+      const std::optional<fs::path> path = api.resolve_case_file(req.matches[1].str());
+      if (!path) {
+        send_error(res, 403, "refused: not a file inside the case folder");
+        return;
+      }
+      std::string body;
+      if (!read_file(*path, body)) {
+        send_error(res, 404, "cannot read the file");
+        return;
+      }
+      res.set_content(std::move(body), mime_type(*path).c_str());
+    });
+    const auto api_handler = [this](const httplib::Request& req, httplib::Response& res) {
+      std::size_t max_points = 0;
+      if (req.has_param("max")) {
+        try {
+          max_points = static_cast<std::size_t>(std::stoull(req.get_param_value("max")));
+        } catch (const std::exception&) {
+          send_error(res, 400, "max: expected a whole number");
+          return;
+        }
+      }
+      ApiResponse out;
+      {
+        std::lock_guard lock(api_mutex);
+        out = api.handle(req.method, req.path, req.body, max_points);
+      }
+      res.status = out.status;
+      res.set_content(std::move(out.body), out.content_type.c_str());
+    };
+    server.Get(R"(/api/.*)", api_handler);
+    server.Post(R"(/api/.*)", api_handler);
+    server.set_exception_handler(
+        [](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
+          std::string what = "internal error";
+          try {
+            if (ep) std::rethrow_exception(ep);
+          } catch (const std::exception& e) {
+            what = e.what();
+          } catch (...) {
+          }
+          send_error(res, 500, what);
+        });
+  }
+};
+
+ViewerServer::ViewerServer(ViewerServerOptions options) {
+  if (options.token.empty()) options.token = random_token();
+  std::error_code ec;
+  if (!fs::is_regular_file(options.web_root / "index.html", ec))
+    throw_input_error(options.web_root, "no index.html: the viewer bundle is missing");
+  impl_ = std::make_unique<Impl>(std::move(options));
+  impl_->install_routes();
+}
+
+ViewerServer::~ViewerServer() { stop(); }
+
+void ViewerServer::start() {
+  const int port = impl_->server.bind_to_any_port(kLoopback);
+  if (port <= 0) throw Error(fmt::format("view: cannot bind a port on {}", kLoopback));
+  impl_->port = static_cast<std::uint16_t>(port);
+  impl_->thread = std::thread([this] { impl_->server.listen_after_bind(); });
+}
+
+void ViewerServer::stop() {
+  if (!impl_) return;
+  impl_->server.stop();
+  if (impl_->thread.joinable()) impl_->thread.join();
+}
+
+std::uint16_t ViewerServer::port() const { return impl_->port; }
+const std::string& ViewerServer::token() const { return impl_->options.token; }
+std::string ViewerServer::url() const {
+  return fmt::format("http://{}:{}/?token={}", kLoopback, impl_->port, impl_->options.token);
+}
+
+}  // namespace locard::viewer

@@ -1,0 +1,337 @@
+// Browser tests of `locard view` in headless Chromium, driven by Playwright (playwright-core,
+// the system's /usr/bin/chromium with SwiftShader WebGL). Run by ctest (tests/browser/
+// CMakeLists.txt):
+//
+//   node viewer.test.mjs --mode main|fps --locard BIN --node-modules DIR --artefacts DIR --work DIR
+//
+// main: builds a small case (the simulated bedroom: `locard scan-sim`, `locard reconstruct`,
+//       `locard simulate` when present), serves it, and checks in the browser: the viewer loads
+//       the case; a measurement clicked between two known points (the simulator's ground-truth
+//       measurements.json) returns the known distance within its expanded uncertainty; a marker
+//       placed survives a reload and is in the case's integrity log; a trajectory analysis; the
+//       witness view; the simulation plays (the AnimationMixer's time advances). Without the
+//       token the server answers 403; path traversal is refused. Screenshots go to ARTEFACTS.
+// fps:  a case whose mesh is decimated to 1M triangles; the frame rate while the camera circles
+//       it is written to ARTEFACTS/fps.json (and checked against --min-fps).
+import { spawn, spawnSync } from 'node:child_process';
+import fs from 'node:fs';
+import path from 'node:path';
+import assert from 'node:assert/strict';
+import { pathToFileURL } from 'node:url';
+
+const args = process.argv.slice(2);
+const opt = (name, fallback) => {
+  const i = args.indexOf(name);
+  return i >= 0 && i + 1 < args.length ? args[i + 1] : fallback;
+};
+const mode = opt('--mode', 'main');
+const locard = path.resolve(opt('--locard', 'build/release/apps/locard/locard'));
+const nodeModules = path.resolve(opt('--node-modules', 'build/release/web/viewer/node_modules'));
+const artefacts = path.resolve(opt('--artefacts', 'build/release/test-artefacts'));
+const work = path.resolve(opt('--work', `build/release/tests/browser/work-${mode}`));
+const minFps = Number(opt('--min-fps', '0'));
+const chromiumPath = opt('--chromium', '/usr/bin/chromium');
+
+const { chromium } = await import(pathToFileURL(path.join(nodeModules, 'playwright-core', 'index.mjs')).href);
+
+const t0 = Date.now();
+const log = (...m) => console.log(`[${((Date.now() - t0) / 1000).toFixed(1)} s]`, ...m);
+
+function run(cmdArgs, { allowFail = false } = {}) {
+  const r = spawnSync(locard, ['--quiet', ...cmdArgs], { encoding: 'utf8', maxBuffer: 64 << 20 });
+  if (r.status !== 0 && !allowFail)
+    throw new Error(`locard ${cmdArgs.join(' ')} exited ${r.status}:\n${r.stdout}\n${r.stderr}`);
+  return r;
+}
+const hasCommand = (name) => spawnSync(locard, [name, '--help'], { encoding: 'utf8' }).status === 0;
+
+// Serves CASE with `locard view --no-browser`; resolves with { url, base, token, proc }.
+function serve(caseDir, seconds) {
+  return new Promise((resolve, reject) => {
+    const proc = spawn(locard, ['view', caseDir, '--no-browser', '--exit-after', String(seconds)],
+      { stdio: ['ignore', 'pipe', 'pipe'] });
+    let out = '', err = '';
+    const timer = setTimeout(() => reject(new Error(`locard view printed no URL:\n${out}\n${err}`)), 20000);
+    proc.stderr.on('data', (d) => { err += d; });
+    proc.stdout.on('data', (d) => {
+      out += d;
+      const m = out.match(/(http:\/\/127\.0\.0\.1:(\d+))\/\?token=([0-9a-f]{32})/);
+      if (m) { clearTimeout(timer); resolve({ url: m[0], base: m[1], token: m[3], proc }); }
+    });
+    proc.on('exit', (code) => { clearTimeout(timer); if (!out.includes('token=')) reject(new Error(`locard view exited ${code}:\n${err}`)); });
+  });
+}
+
+async function launch() {
+  const browser = await chromium.launch({
+    executablePath: chromiumPath,
+    args: ['--no-sandbox', '--enable-unsafe-swiftshader', '--use-angle=swiftshader', '--ignore-gpu-blocklist',
+      '--disable-gpu-vsync', '--disable-frame-rate-limit'],
+  });
+  // bypassCSP: Playwright's waitForFunction evaluates strings in the page, which the viewer's
+  // Content-Security-Policy (no eval) forbids; the viewer itself never needs it.
+  const page = await browser.newPage({ viewport: { width: 1280, height: 760 }, bypassCSP: true });
+  const remote = [];
+  page.on('request', (req) => { if (!req.url().startsWith('http://127.0.0.1:')) remote.push(req.url()); });
+  page.on('pageerror', (e) => log('page error:', e.message));
+  page.on('console', (m) => { if (m.type() === 'error') log('console error:', m.text()); });
+  return { browser, page, remote };
+}
+
+async function openViewer(page, url) {
+  await page.goto(url);
+  await page.waitForFunction(() => window.locardViewer && (window.locardViewer.state.loaded || window.locardViewer.state.error), null, { timeout: 120000 });
+  const error = await page.evaluate(() => window.locardViewer.state.error);
+  assert.equal(error, null, `viewer failed to load: ${error}`);
+  await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+}
+
+const shot = async (page, name) => {
+  const file = path.join(artefacts, name);
+  await page.screenshot({ path: file });
+  log('screenshot', file);
+};
+
+// Points the orbit camera at a world point from `distance` metres towards `towards`, then clicks
+// the canvas where the point appears (the viewer ray-casts the click onto the mesh).
+async function clickWorldPoint(page, p, towards, distance = 1.2) {
+  const d = [towards[0] - p[0], towards[1] - p[1], towards[2] - p[2]];
+  const n = Math.hypot(...d);
+  const from = p.map((v, i) => v + (d[i] / n) * distance);
+  const screen = await page.evaluate(([target, eye]) => { window.locardViewer.lookAt(target, eye); return window.locardViewer.toScreen(target); }, [p, from]);
+  await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => r())));
+  await page.mouse.click(screen.x, screen.y);
+}
+
+async function mainTest() {
+  fs.rmSync(work, { recursive: true, force: true });
+  fs.mkdirSync(work, { recursive: true });
+  const caseDir = path.join(work, 'case');
+  let scan = path.join(work, 'scan');
+  if (opt('--from-case')) {  // development: a copy of an existing case and its scan
+    scan = path.resolve(opt('--from-scan'));
+    fs.cpSync(path.resolve(opt('--from-case')), caseDir, { recursive: true });
+  } else {
+    log('scan-sim');
+    run(['scan-sim', '-o', scan, '--views', opt('--views', '12')]);
+    // The reference for reconstruct's own Table-I stage: the room's width (its wall faces are
+    // seen from every view of this short scan; small furniture may not be).
+    const all = JSON.parse(fs.readFileSync(path.join(scan, 'measurements.json'), 'utf8'));
+    const reference = path.join(work, 'reference.json');
+    fs.writeFileSync(reference, JSON.stringify({ ...all, measurements: all.measurements.filter((m) => m.name === 'Room width') }, null, 2));
+    log('reconstruct');
+    run(['reconstruct', scan, '-o', caseDir, '--mesh-voxel', '0.02', '--no-pdf', '--reference', reference]);
+  }
+  let simulation = null;
+  if (hasCommand('simulate')) {
+    log('simulate');
+    const scenario = path.join(work, 'drop.json');
+    fs.writeFileSync(scenario, JSON.stringify({
+      name: 'drop', description: 'a box dropped onto the floor (browser test)', duration: 2.0, fps: 30,
+      objects: [{ name: 'box', shape: 'box', size: [0.3, 0.2, 0.15], position: [0.3, 0.2, 1.2], mass: 2.0 }],
+    }, null, 2));
+    run(['simulate', caseDir, scenario]);
+    simulation = 'drop';
+  }
+  const known = JSON.parse(fs.readFileSync(path.join(scan, 'measurements.json'), 'utf8')).measurements;
+
+  const results = [];
+  const server = await serve(caseDir, 300);
+  log('serving', server.url);
+  try {
+    // --- the token: every request without it (or with a wrong one) is refused ------------------
+    for (const p of ['/', '/app.js', '/api/case', '/api/markers', '/case/case.json'])
+      assert.equal((await fetch(server.base + p)).status, 403, `${p} without the token`);
+    assert.equal((await fetch(`${server.base}/api/case?token=${'0'.repeat(32)}`)).status, 403, 'wrong token');
+    const post = await fetch(server.base + '/api/markers', { method: 'POST', body: '{"position":[0,0,0],"label":"x"}' });
+    assert.equal(post.status, 403, 'POST without the token');
+    assert.equal((await fetch(`${server.base}/api/case`, { headers: { 'X-Locard-Token': server.token } })).status, 200, 'header token');
+    // --- path traversal --------------------------------------------------------------------
+    for (const p of ['/case/..%2f..%2fetc%2fpasswd', '/case/mesh/..%2f..%2f..%2fetc%2fpasswd', '/case/%2fetc%2fpasswd', '/..%2fREADME.md'])
+      assert.ok([403, 404].includes((await fetch(`${server.base}${p}?token=${server.token}`)).status), `traversal ${p}`);
+    assert.equal((await fetch(`${server.base}/case/case.json?token=${server.token}`)).status, 200, 'case file');
+
+    const { browser, page, remote } = await launch();
+    try {
+      await openViewer(page, server.url);
+      const st = await page.evaluate(() => window.locardViewer.state);
+      log(`loaded: ${st.meshTriangles} triangles, ${st.points} points, ${st.markers.length} markers`);
+      assert.ok(st.meshTriangles > 1000, 'mesh loaded');
+      await shot(page, 'viewer-01-loaded.png');
+
+      // --- measurement between two known points ------------------------------------------
+      const centre = [0, 0, 1.3];
+      await page.evaluate(() => window.locardViewer.setTool('measure'));
+      // The room's width (wall face to wall face) must come out within its uncertainty; a few
+      // more known distances are measured and reported (edge and corner points are harder to
+      // hit with a click, so a miss there is reported, not failed).
+      const first = known.find((m) => m.name === 'Room width') || known[0];
+      for (const m of [first]) {
+        await page.evaluate(() => { window.locardViewer.setTool('none'); window.locardViewer.setTool('measure'); });
+        const before = await page.evaluate(() => window.locardViewer.state.lastMeasurement);
+        let r = null, failure = null;
+        try {
+          await clickWorldPoint(page, m.a, centre);
+          await page.waitForFunction(() => document.getElementById('tool-result').textContent.startsWith('first point'), null, { timeout: 10000 });
+          await clickWorldPoint(page, m.b, centre);
+          await page.waitForFunction((b) => { const s = window.locardViewer.state.lastMeasurement; return s && JSON.stringify(s) !== JSON.stringify(b); }, before, { timeout: 60000 });
+          r = await page.evaluate(() => window.locardViewer.state.lastMeasurement);
+        } catch (e) {
+          failure = `${await page.textContent('#tool-result')} (${e.message.split('\n')[0]})`;
+        }
+        if (!r) {
+          results.push({ name: m.name, known_m: m.distance_m, failure });
+          log(`measure ${m.name}: no result: ${failure}`);
+          if (m === first) throw new Error(`no measurement of ${m.name}: ${failure}`);
+          continue;
+        }
+        const error = r.distance_m - m.distance_m;
+        results.push({ name: m.name, known_m: m.distance_m, measured_m: r.distance_m, error_m: error,
+          expanded_uncertainty_m: r.expanded_uncertainty_m, within: Math.abs(error) <= r.expanded_uncertainty_m,
+          a: r.a, b: r.b });
+        log(`measure ${m.name}: known ${m.distance_m.toFixed(4)} m, viewer ${r.distance_m.toFixed(4)} m, error ${(error * 1000).toFixed(2)} mm, U(k=2) ${(r.expanded_uncertainty_m * 1000).toFixed(2)} mm, ${r.a.feature}/${r.b.feature}`);
+      }
+      // The other known distances through the same API call with the known points (reported).
+      for (const m of known.filter((k) => k !== first)) {
+        try {
+          const r = await page.evaluate(([a, b]) => window.locardViewer.measure(a, b), [m.a, m.b]);
+          const error = r.distance_m - m.distance_m;
+          results.push({ name: m.name, via: 'api', known_m: m.distance_m, measured_m: r.distance_m, error_m: error,
+            expanded_uncertainty_m: r.expanded_uncertainty_m, within: Math.abs(error) <= r.expanded_uncertainty_m });
+          log(`measure ${m.name} (API): known ${m.distance_m.toFixed(4)} m, viewer ${r.distance_m.toFixed(4)} m, error ${(error * 1000).toFixed(2)} mm, U(k=2) ${(r.expanded_uncertainty_m * 1000).toFixed(2)} mm`);
+        } catch (e) {
+          results.push({ name: m.name, via: 'api', known_m: m.distance_m, failure: e.message });
+          log(`measure ${m.name} (API): ${e.message.split('\n')[0]}`);
+        }
+      }
+      fs.writeFileSync(path.join(artefacts, 'viewer-measurements.json'), JSON.stringify(results, null, 2));
+      await page.evaluate(() => window.locardViewer.homeView());
+      await shot(page, 'viewer-02-measure.png');
+
+      // --- evidence marker: placed by clicking, labelled, survives a reload -------------------
+      await page.evaluate(() => window.locardViewer.setTool('marker'));
+      const markerAt = known[0].a.map((v, i) => v + (centre[i] - v) * 0); // on the surface at a
+      await clickWorldPoint(page, markerAt, centre);
+      await page.waitForSelector('#marker-form:not([hidden])');
+      await page.fill('#marker-label', 'Shell casing');
+      await page.fill('#marker-note', 'placed by the browser test');
+      await page.click('#marker-save');
+      await page.waitForFunction(() => window.locardViewer.state.markers.some((m) => m.label === 'Shell casing'), null, { timeout: 60000 });
+      await page.evaluate(() => window.locardViewer.homeView());
+      await shot(page, 'viewer-03-marker.png');
+      await openViewer(page, server.url);  // reload
+      const markers = await page.evaluate(() => window.locardViewer.state.markers);
+      assert.ok(markers.some((m) => m.label === 'Shell casing'), 'the marker survives a reload');
+      const logLines = fs.readFileSync(path.join(caseDir, 'log.jsonl'), 'utf8').trim().split('\n').map((l) => JSON.parse(l));
+      assert.ok(logLines.some((l) => l.step === 'marker add' && JSON.stringify(l.parameters).includes('Shell casing')), 'marker in log.jsonl');
+      const manifest = JSON.parse(fs.readFileSync(path.join(caseDir, 'manifest.json'), 'utf8'));
+      assert.ok(manifest.files['evidence/markers.json'], 'markers.json in manifest.json');
+      if (hasCommand('verify')) {
+        const v = run(['verify', caseDir, '--no-inputs'], { allowFail: true });
+        const v2 = v.status === 0 ? v : run(['verify', caseDir], { allowFail: true });
+        assert.equal(v2.status, 0, `locard verify after the viewer's saves:\n${v2.stdout}\n${v2.stderr}`);
+      }
+
+      // --- trajectory: two clicks -> line, angles, extension, cone ----------------------------
+      await page.evaluate(() => window.locardViewer.setTool('trajectory'));
+      const wall = known[0];
+      await clickWorldPoint(page, wall.a, centre);
+      await page.waitForFunction(() => document.getElementById('tool-result').textContent.startsWith('first point'));
+      await clickWorldPoint(page, [wall.a[0] * 0.5 + wall.b[0] * 0.5, wall.a[1] * 0.5 + wall.b[1] * 0.5, 0.0], centre, 1.5);
+      await page.waitForFunction(() => window.locardViewer.state.lastTrajectory, null, { timeout: 60000 });
+      const traj = await page.evaluate(() => window.locardViewer.state.lastTrajectory);
+      log(`trajectory ${traj.name}: az ${traj.horizontal_angle_deg.toFixed(2)} deg, el ${traj.vertical_angle_deg.toFixed(2)} deg, cone ${traj.cone_half_angle_deg.toFixed(3)} deg`);
+      assert.ok(Number.isFinite(traj.horizontal_angle_deg) && Number.isFinite(traj.cone_half_angle_deg));
+      assert.ok(fs.existsSync(path.join(caseDir, 'trajectories', 'analyses.json')), 'trajectory saved');
+      await page.evaluate(() => window.locardViewer.homeView());
+      await shot(page, 'viewer-04-trajectory.png');
+
+      // --- witness view at eye height ------------------------------------------------------
+      await page.evaluate(() => window.locardViewer.witnessView({ x: 0, y: 0, heading: 90, eye: 1.6 }));
+      const eye = await page.evaluate(() => window.locardViewer.state && document.getElementById('status').textContent);
+      log('witness:', eye);
+      await shot(page, 'viewer-05-witness.png');
+
+      // --- clipping plane + raw points + segments ------------------------------------------
+      await page.evaluate(() => { window.locardViewer.setNavMode('orbit'); window.locardViewer.homeView(); });
+      await page.check('#clip-on');
+      await page.check('#show-points');
+      if (await page.isEnabled('#show-segments')) await page.check('#show-segments');
+      await page.uncheck('#show-mesh');
+      await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+      await shot(page, 'viewer-06-clipped-points.png');
+      await page.check('#show-mesh');
+      await page.uncheck('#show-points');
+      await page.uncheck('#clip-on');
+
+      // --- simulation playback --------------------------------------------------------------
+      if (simulation) {
+        await page.evaluate((name) => window.locardViewer.loadSimulation(name), simulation);
+        assert.ok(await page.isVisible('#sim-banner'), 'the ILLUSTRATIVE SIMULATION banner is shown');
+        const t1 = await page.evaluate(() => { window.locardViewer.playSimulation(true); return window.locardViewer.simulationTime(); });
+        await page.waitForTimeout(1200);
+        const t2 = await page.evaluate(() => window.locardViewer.simulationTime());
+        log(`simulation: mixer time ${t1.toFixed(3)} s -> ${t2.toFixed(3)} s`);
+        assert.ok(t2 > t1 + 0.1, `the simulation plays (mixer time ${t1} -> ${t2})`);
+        await shot(page, 'viewer-07-simulation.png');
+      } else {
+        log('SKIPPED simulation playback: this build has no `locard simulate`');
+      }
+      assert.deepEqual(remote, [], 'no request leaves 127.0.0.1');
+      // Checked last, so that every other part has run and left its screenshot.
+      assert.ok(results[0].within, `${results[0].name}: |error| ${Math.abs(results[0].error_m)} m > U ${results[0].expanded_uncertainty_m} m`);
+    } finally {
+      await browser.close();
+    }
+  } finally {
+    server.proc.kill('SIGTERM');
+  }
+}
+
+async function fpsTest() {
+  const triangles = Number(opt('--triangles', '1000000'));
+  const caseDir = path.join(work, 'case');
+  const stamp = path.join(work, `mesh-${triangles}.done`);
+  if (!fs.existsSync(stamp)) {  // the 1M-triangle case is reused between runs of this test
+    fs.rmSync(work, { recursive: true, force: true });
+    fs.mkdirSync(work, { recursive: true });
+    const scan = path.join(work, 'scan');
+    log('scan-sim');
+    run(['scan-sim', '-o', scan, '--views', '12']);
+    log('mesh (fine voxel, decimated)');
+    run(['mesh', scan, '-o', path.join(caseDir, 'mesh'), '--voxel', opt('--voxel', '0.008'), '--target-triangles', String(triangles), '--format', 'glb', '--no-cloud']);
+    fs.writeFileSync(path.join(caseDir, 'case.json'), JSON.stringify({ title: `FPS test: ${triangles} triangles` }));
+    fs.writeFileSync(stamp, '');
+  }
+  const meshInfo = JSON.parse(fs.readFileSync(path.join(caseDir, 'mesh', 'mesh.json'), 'utf8'));
+  const server = await serve(caseDir, 600);
+  const { browser, page } = await launch();
+  try {
+    await openViewer(page, server.url);
+    const loaded = await page.evaluate(() => window.locardViewer.state.meshTriangles + window.locardViewer.state.inferredTriangles);
+    log(`mesh: ${loaded} triangles (mesh.json: ${meshInfo.triangles})`);
+    assert.ok(Math.abs(loaded - triangles) <= 0.05 * triangles, `mesh has ${loaded} triangles, wanted about ${triangles}`);
+    await page.evaluate(() => window.locardViewer.runBenchmark(1.5));  // warm-up: shaders, buffers
+    const r = await page.evaluate(() => window.locardViewer.runBenchmark(5));
+    r.viewport = await page.evaluate(() => { const c = document.querySelector('#viewport canvas'); return [c.width, c.height]; });
+    r.renderer = await page.evaluate(() => { const g = document.querySelector('#viewport canvas').getContext('webgl2'); const e = g.getExtension('WEBGL_debug_renderer_info'); return e ? g.getParameter(e.UNMASKED_RENDERER_WEBGL) : g.getParameter(g.RENDERER); });
+    log(`FPS: ${r.fps.toFixed(1)} frames/s over ${r.seconds.toFixed(1)} s, ${r.triangles} triangles, canvas ${r.viewport.join('x')}, ${r.renderer}`);
+    fs.writeFileSync(path.join(artefacts, `fps-${triangles}.json`), JSON.stringify(r, null, 2));
+    await shot(page, `viewer-fps-${triangles}.png`);
+    assert.ok(r.fps >= minFps, `frame rate ${r.fps.toFixed(1)} < ${minFps}`);
+  } finally {
+    await browser.close();
+    server.proc.kill('SIGTERM');
+  }
+}
+
+fs.mkdirSync(artefacts, { recursive: true });
+try {
+  if (mode === 'fps') await fpsTest();
+  else await mainTest();
+  log('PASS');
+} catch (e) {
+  console.error(e);
+  log('FAIL');
+  process.exit(1);
+}
