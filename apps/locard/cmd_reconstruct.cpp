@@ -76,6 +76,9 @@ int run_reconstruct(const ReconstructCli& o, const GlobalOptions& global) {
       fmt::print("reconstruct: {} reference measurements, {} within their stated uncertainty "
                  "(measurements/table.csv)\n",
                  s.measurements, s.measurements_within);
+    if (s.measurements_not_measured)
+      fmt::print("reconstruct: {} reference measurements not covered by the model\n",
+                 s.measurements_not_measured);
     std::string stages;
     for (const auto& [name, sec] : s.stage_seconds)
       stages += fmt::format("{}{} {:.1f} s", stages.empty() ? "" : ", ", name, sec);

@@ -217,6 +217,16 @@ LocalPoints CaseModel::local_points(const Eigen::Vector3d& p, double radius_m) c
         const std::uint16_t raw = depth->at(u, v);
         if (raw == 0) continue;
         const double z = raw / impl_->depth_scale;
+        // Mixed ("flying") pixels: strictly between two neighbours across a depth jump, on
+        // either axis. They belong to neither surface, so they are left out.
+        auto mixed = [&](int du, int dv) {
+          if (u - du < 0 || v - dv < 0 || u + du >= K.width || v + dv >= K.height) return false;
+          const std::uint16_t r0 = depth->at(u - du, v - dv), r1 = depth->at(u + du, v + dv);
+          if (r0 == 0 || r1 == 0) return false;
+          const double a = r0 / impl_->depth_scale - z, b = r1 / impl_->depth_scale - z;
+          return a * b < 0 && std::abs(a - b) > 0.04 && std::min(std::abs(a), std::abs(b)) > 0.004;
+        };
+        if (mixed(1, 0) || mixed(0, 1)) continue;
         const Eigen::Vector3d q = T * Eigen::Vector3d((u - K.cx) / K.fx * z, (v - K.cy) / K.fy * z, z);
         if ((q - p).squaredNorm() > r2) continue;
         out.points.push_back(q);

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -246,55 +247,101 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
     cov += o * o.transpose() * plane_offset_variance(*facing, L) / (c * c);
     s.feature = side.empty() ? "face" : (side.size() == 1 ? "edge" : "corner");
   } else if (!side.empty()) {
-    // Where do the side planes' points end along o, near the line through q? Per view: its
-    // outermost point plus half its sampling step (the expected gap between the last sample
-    // and the true edge); the median over views is the edge.
+    // Where do the side planes' points end along o, near the line through q? Counting, per
+    // view: with w = edge_window_m, the points in the window [-2w, -w] give the view's density
+    // along o, and the points beyond -w, divided by that density, how far the surface goes on:
+    //   edge_k = -w + w * N_beyond / N_window.
+    // Unlike the outermost point, this is unbiased under lateral noise (points move across
+    // the edge both ways) and barely moved by a stray mixed pixel. The median over views is
+    // the edge; views whose window is mostly hidden (fewer than 6 points) are skipped.
+    const double m = options.edge_window_m;
     const CameraIntrinsics& K = model.intrinsics();
-    std::map<std::uint32_t, std::pair<double, double>> per_view;  // view -> (max s, step)
-    std::map<std::uint32_t, std::size_t> counts;
+    std::map<std::uint32_t, std::array<double, 3>> per_view;  // view -> (window, beyond, step)
     double farthest = -std::numeric_limits<double>::infinity();
-    for (const Plane* p : side)
-      for (auto i : p->inliers) {
-        const Vector3d rel = L.points[i] - q;
-        const double s_along = rel.dot(o);
-        const double lateral = (rel - s_along * o).norm();
-        const ViewRecord& view = model.views().empty() ? ViewRecord{} : model.views()[L.view[i]];
-        const Vector3d ray = (L.points[i] - view.T_world_camera.translation());
-        const double range = ray.norm();
-        const double footprint_dir = std::max(0.25, std::sqrt(std::max(0.0, 1.0 - std::pow(ray.normalized().dot(o), 2))));
-        const double step = L.from_raw_depth
-                                ? range / K.fx / std::max(0.25, std::abs(ray.normalized().dot(p->normal))) * footprint_dir
-                                : model.model_voxel_m();
-        if (lateral > std::max(0.006, 1.5 * step)) continue;
-        farthest = std::max(farthest, s_along);
-        auto& entry = per_view[L.view[i]];
-        if (counts[L.view[i]]++ == 0 || s_along > entry.first) entry = {s_along, step};
+    // Counts the side planes' points near the edge: within `band` of the measuring line
+    // along the edge (and on the plane). A straight edge may be followed farther along itself
+    // when something hides it right at the measuring line (a handle in front of a door).
+    auto count = [&](const LocalPoints& pts, double band, bool all_points) {
+      per_view.clear();
+      farthest = -std::numeric_limits<double>::infinity();
+      for (const Plane* p : side) {
+        const Vector3d along_edge = p->normal.cross(o).normalized();
+        auto visit = [&](std::uint32_t i) {
+          const Vector3d rel = pts.points[i] - q;
+          if (all_points && std::abs(p->distance(pts.points[i])) > threshold) return;
+          const double s_along = rel.dot(o);
+          if (std::abs(rel.dot(along_edge)) > band) return;
+          double step = model.model_voxel_m();
+          if (pts.from_raw_depth) {
+            const Vector3d ray = pts.points[i] - model.views()[pts.view[i]].T_world_camera.translation();
+            step = ray.norm() / K.fx / std::max(0.25, std::abs(ray.normalized().dot(p->normal)));
+          }
+          farthest = std::max(farthest, s_along);
+          auto& e = per_view[pts.view[i]];
+          if (s_along >= -2 * m && s_along < -m) e[0] += 1;
+          if (s_along >= -m) e[1] += 1;
+          e[2] = std::max(e[2], step);
+        };
+        if (all_points)
+          for (std::uint32_t i = 0; i < pts.points.size(); ++i) visit(i);
+        else
+          for (auto i : p->inliers) visit(i);
       }
+    };
+    count(L, 0.01, false);
+    double window_total = 0;
+    for (const auto& [view, e] : per_view) window_total += e[0];
+    if (farthest < options.edge_margin_m && window_total < 8) {
+      const LocalPoints wide = model.local_points(q, options.edge_follow_m);
+      count(wide, options.edge_follow_m, true);
+      s.points += wide.points.size();
+    }
     if (farthest < options.edge_margin_m && !per_view.empty()) {
-      std::vector<double> edges, steps;
+      // Pooled over the views (each view weighs by its density), with a leave-one-view-out
+      // jackknife for the spread between views.
+      double window = 0, beyond = 0;
+      std::vector<double> steps;
       for (const auto& [view, e] : per_view) {
-        if (counts[view] < 3) continue;
-        edges.push_back(e.first + 0.5 * e.second);
-        steps.push_back(e.second);
+        window += e[0];
+        beyond += e[1];
+        steps.push_back(e[2]);
       }
-      if (edges.empty())
-        for (const auto& [view, e] : per_view) {
-          edges.push_back(e.first + 0.5 * e.second);
-          steps.push_back(e.second);
-        }
-      const double edge = median(edges);
+      if (window < 8) {
+        // Too few points just inside the edge to count: the outermost point plus half a
+        // sampling step, with a conservative uncertainty (a step / sqrt(3) and the lateral
+        // noise, not reduced by the number of views).
+        const double step = median(steps);
+        const double lateral = model.noise().lateral_sigma_m(1.0);
+        q += (farthest + 0.5 * step) * o;
+        cov += o * o.transpose() * (step * step / 3.0 + lateral * lateral);
+        s.feature = side.size() == 1 ? "edge (outermost point)" : "corner (outermost point)";
+        s.snapped = q;
+        s.covariance = cov;
+        return s;
+      }
+      const double edge = -m + m * beyond / window;
+      double jack = 0.0;
+      std::size_t used = 0;
+      for (const auto& [view, e] : per_view) {
+        if (window - e[0] < 1) continue;
+        const double ek = -m + m * (beyond - e[1]) / (window - e[0]);
+        jack += (ek - edge) * (ek - edge);
+        ++used;
+      }
+      const double n = static_cast<double>(std::max<std::size_t>(used, 1));
+      jack *= (n - 1) / n;
       q += edge * o;
-      // Spread of the per-view edges (standard error of the median) and the residual
-      // sampling uncertainty of one view's edge (uniform over a step: step / sqrt(12)), plus
-      // the lateral noise of the last sample.
-      std::vector<double> dev;
-      for (double e : edges) dev.push_back(std::abs(e - edge));
-      const double mad_sigma = 1.4826 * median(dev);
-      const double n = static_cast<double>(edges.size());
+      // The jackknife spread of the views, the counting noise (Poisson in both windows), the
+      // quantisation of a count (a step / sqrt(12)) and the sensor's lateral noise per view.
+      const double ratio = beyond / window;
+      const double counting = m * m * ratio * ratio * (1.0 / std::max(beyond, 1.0) + 1.0 / window);
       const double step = median(steps);
       const double lateral = model.noise().lateral_sigma_m(1.0);
-      const double var = mad_sigma * mad_sigma * (M_PI / 2.0) / n + step * step / 12.0 +
-                         lateral * lateral;
+      // Mixed pixels between the edge and a surface close behind it (less than the mixed-pixel
+      // filter's jump) land on the plane within about half a step either side of the edge:
+      // a systematic of uniform width one step, the same in every view.
+      const double mixed = step * step / 12.0;
+      const double var = jack + counting + step * step / 12.0 / n + lateral * lateral / n + mixed;
       cov += o * o.transpose() * var;
       s.feature = side.size() == 1 ? "edge" : "corner";
     } else {
@@ -560,6 +607,11 @@ void write_measurement_table(const CaseFolder& folder, const std::vector<TableRo
   std::string csv = "name,real_m,model_m,error_m,expanded_uncertainty_m,within_uncertainty,"
                     "a_feature,b_feature\n";
   for (const TableRow& r : rows) {
+    if (!r.not_measured.empty()) {
+      j["rows"].push_back({{"name", r.name}, {"real_m", r.real_m}, {"not_measured", r.not_measured}});
+      csv += fmt::format("\"{}\",{:.5f},,,,not measured,,\n", r.name, r.real_m);
+      continue;
+    }
     j["rows"].push_back({{"name", r.name},
                          {"real_m", r.real_m},
                          {"model_m", r.model_m},

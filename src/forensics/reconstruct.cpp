@@ -510,8 +510,18 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
     auto progress = begin("measure", refs.size());
     std::vector<TableRow> rows;
     for (std::size_t i = 0; i < refs.size(); ++i) {
-      auto one = compare_with_reference(model, {refs[i]}, so);
-      rows.push_back(std::move(one[0]));
+      try {
+        auto one = compare_with_reference(model, {refs[i]}, so);
+        rows.push_back(std::move(one[0]));
+      } catch (const InputError& e) {
+        // A reference point the scan did not cover: reported, not fatal for the case.
+        TableRow row;
+        row.name = refs[i].name;
+        row.real_m = refs[i].true_distance_m;
+        row.not_measured = e.what();
+        note(fmt::format("warning: {}", e.what()));
+        rows.push_back(std::move(row));
+      }
       if (progress) progress(i + 1, refs.size());
     }
     end("measure");
@@ -524,6 +534,7 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
     write_measurement_table(folder, rows);
     summary.measurements = rows.size();
     for (const TableRow& r : rows) summary.measurements_within += r.within_uncertainty;
+    for (const TableRow& r : rows) summary.measurements_not_measured += !r.not_measured.empty();
     LogStep s;
     s.step = "measure reference";
     s.parameters_json = json{{"reference", fs::absolute(reference).string()},

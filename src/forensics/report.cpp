@@ -360,6 +360,13 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
          "(cm)</th><th>error (mm)</th><th>uncertainty U (mm, k=2)</th><th>|error| &le; U</th>"
          "<th>end points (snapped)</th></tr>";
     for (const json& r : table["rows"]) {
+      if (r.contains("not_measured")) {
+        h += fmt::format("<tr><td>{}</td><td class=n>{}</td><td colspan=5 class=bad>not measured: "
+                         "{}</td></tr>",
+                         esc(r.value("name", "")), cm(r.value("real_m", 0.0), 2),
+                         esc(r.value("not_measured", "")));
+        continue;
+      }
       const bool ok = r.value("within_uncertainty", false);
       const json& m = r["measurement"];
       h += fmt::format("<tr><td>{}</td><td class=n>{}</td><td class=n>{}</td><td class=n>{}</td>"

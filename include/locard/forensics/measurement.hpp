@@ -9,8 +9,11 @@
 //   - planes along o ("side planes": the top of a box measured along its length) pull the
 //     point onto themselves perpendicular to o; when their points stop within edge_margin_m
 //     beyond the given point along o, the point is at an edge of the model and moves along o
-//     to where the surface ends (the outermost points, plus half the local point spacing,
-//     the expected gap between the last sample and the true edge);
+//     to where the surface ends, found by counting points per view (measurement.cpp: the
+//     density just inside the edge against the count beyond it; robust to lateral noise and
+//     mixed pixels), pooled over the views; when too few points lie at the measuring line
+//     (something in front hides the edge there), points up to edge_follow_m along the
+//     straight edge are used;
 //   - otherwise the point is in the middle of a face and keeps its position along o.
 // Without a direction the point is projected onto the plane nearest to it ("face"), or onto
 // the mesh when no plane fits ("surface"). A point farther than max_snap_distance_m from the
@@ -41,6 +44,8 @@ struct SnapOptions {
   double search_radius_m = 0.03;
   double max_snap_distance_m = 0.05;
   double edge_margin_m = 0.012;
+  double edge_window_m = 0.006;  // density window just inside an edge (see snap_point)
+  double edge_follow_m = 0.08;   // how far along a hidden edge its points may be taken from
   double coverage_factor = 2.0;
   std::size_t min_plane_points = 25;
   double plane_inlier_m = 0.004;
@@ -134,6 +139,7 @@ struct TableRow {
   double expanded_uncertainty_m = 0.0;  // k = 2
   bool within_uncertainty = false;      // |error| <= expanded uncertainty
   PointToPointMeasurement detail;
+  std::string not_measured;  // why the model could not give it (then model_m etc. are 0)
 };
 
 // The paper's Table I: each reference distance measured on the model.

@@ -88,6 +88,7 @@ struct ReconstructSummary {
   std::size_t triangles = 0;
   std::size_t measurements = 0;
   std::size_t measurements_within = 0;
+  std::size_t measurements_not_measured = 0;  // reference points the model does not cover
   double seconds = 0.0;
   std::vector<std::pair<std::string, double>> stage_seconds;
 };

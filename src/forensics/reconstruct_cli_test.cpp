@@ -1,0 +1,178 @@
+// `locard reconstruct` end to end on a small simulated scan (8 views of the bedroom, coarse
+// voxels), then what the issue asks of a case: verify passes on a fresh case and fails naming
+// the file after one byte of a mesh or an input changes; a case is never written over without
+// --force; bad measurement input is a clear error that changes nothing; the same input and seed
+// give the same model bit for bit; markers and trajectories join the case through the log.
+#include <locard/forensics/integrity.hpp>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "test_support.hpp"
+
+#include <filesystem>
+#include <fstream>
+
+namespace locard::forensics {
+namespace {
+
+namespace fs = std::filesystem;
+using test::run_cli;
+
+std::string q(const fs::path& p) { return "'" + p.string() + "'"; }
+
+void flip_byte(const fs::path& p, std::size_t offset) {
+  std::fstream f(p, std::ios::binary | std::ios::in | std::ios::out);
+  f.seekg(static_cast<std::streamoff>(offset));
+  char c = 0;
+  f.get(c);
+  f.seekp(static_cast<std::streamoff>(offset));
+  f.put(static_cast<char>(c ^ 0x20));
+}
+
+std::string read(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+class ReconstructCli : public ::testing::Test {
+ protected:
+  static void SetUpTestSuite() {
+    dir_ = new fs::path(test::scratch_dir());
+    const auto sim = run_cli("scan-sim -o " + q(scan()) + " --views 50");
+    ASSERT_EQ(sim.exit_code, 0) << sim.output;
+    const auto r = run_cli(reconstruct_args(case_dir()));
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    output_ = new std::string(r.output);
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    delete output_;
+  }
+  static std::string reconstruct_args(const fs::path& out) {
+    return "--quiet reconstruct " + q(scan()) + " -o " + q(out) +
+           " --frames 8 --voxel 0.04 --mesh-voxel 0.03 --seed 7 --no-pdf";
+  }
+  static fs::path scan() { return *dir_ / "scan"; }
+  static fs::path case_dir() { return *dir_ / "case"; }
+  static fs::path* dir_;
+  static std::string* output_;
+};
+fs::path* ReconstructCli::dir_ = nullptr;
+std::string* ReconstructCli::output_ = nullptr;
+
+TEST_F(ReconstructCli, WritesTheDocumentedLayout) {
+  for (const char* f :
+       {"case.json", "log.jsonl", "manifest.json", "alignment/trajectory.txt",
+        "alignment/pose_graph.json", "alignment/pose_covariance.json",
+        "alignment/stage_report.json", "alignment/stage_report.svg", "cloud/registered.ply",
+        "mesh/mesh.ply", "mesh/mesh.glb", "mesh/mesh.obj", "mesh/mesh.fbx", "mesh/mesh.json",
+        "measurements/reference.json", "measurements/table.json", "measurements/table.csv",
+        "report/report.html"})
+    EXPECT_TRUE(fs::is_regular_file(case_dir() / f)) << f;
+  const auto c = nlohmann::json::parse(read(case_dir() / "case.json"));
+  EXPECT_EQ(c["seeds"]["ransac"], 7);
+  EXPECT_EQ(c["seeds"]["simulation"], 1);
+  EXPECT_EQ(c["parameters"]["max_frames"], 8);
+  EXPECT_FALSE(c["software"]["version"].get<std::string>().empty());
+  EXPECT_EQ(c["inputs"]["files"].size(), 4u + 2u * 50u + 4u);  // index files, images, scene...
+  // The 8 views see only part of the room: reference points elsewhere are reported.
+  const auto t = nlohmann::json::parse(read(case_dir() / "measurements" / "table.json"));
+  EXPECT_EQ(t["rows"].size(), 12u);
+  const std::string html = read(case_dir() / "report" / "report.html");
+  EXPECT_NE(html.find("id=\"stage-plot\""), std::string::npos);
+  EXPECT_NE(html.find("id=\"measurement-table\""), std::string::npos);
+  EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
+  EXPECT_EQ(html.find("http://"), html.find("http://www.w3.org"));  // nothing fetched
+  // Every stage logged with hashes.
+  std::ifstream log(case_dir() / "log.jsonl");
+  std::vector<std::string> steps;
+  for (std::string line; std::getline(log, line);)
+    steps.push_back(nlohmann::json::parse(line)["step"]);
+  EXPECT_EQ(steps, (std::vector<std::string>{"ingest", "align", "mesh", "measure reference",
+                                             "report"}));
+}
+
+TEST_F(ReconstructCli, VerifyPassesThenNamesAChangedMeshOrInput) {
+  auto r = run_cli("verify " + q(case_dir()));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  const fs::path mesh = case_dir() / "mesh" / "mesh.ply";
+  flip_byte(mesh, fs::file_size(mesh) / 2);
+  r = run_cli("verify " + q(case_dir()));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("changed: mesh/mesh.ply"), std::string::npos) << r.output;
+  flip_byte(mesh, fs::file_size(mesh) / 2);
+  EXPECT_EQ(run_cli("verify " + q(case_dir())).exit_code, 0);
+
+  const fs::path depth = scan() / "depth" / "000003.png";
+  ASSERT_TRUE(fs::exists(depth));
+  flip_byte(depth, 100);
+  r = run_cli("verify " + q(case_dir()));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("input changed: " + depth.string()), std::string::npos) << r.output;
+  EXPECT_EQ(run_cli("verify --skip-inputs " + q(case_dir())).exit_code, 0);
+  flip_byte(depth, 100);
+  EXPECT_EQ(run_cli("verify " + q(case_dir())).exit_code, 0);
+
+  r = run_cli("verify " + q(*dir_ / "no-such-case"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+}
+
+TEST_F(ReconstructCli, NeverWritesOverACaseAndBadMeasurementsChangeNothing) {
+  const std::string manifest = read(case_dir() / "manifest.json");
+  auto r = run_cli(reconstruct_args(case_dir()));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("--force"), std::string::npos) << r.output;
+  // A point in mid-air, far from every surface.
+  r = run_cli("measure " + q(case_dir()) + " --from 0,0,1.2 --to 0.1,0,1.2");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("off the model"), std::string::npos) << r.output;
+  // A reference naming a marker the case does not have, or an unknown key.
+  { std::ofstream(*dir_ / "ref1.json") << R"({"measurements":[{"name":"x","a":"blood stain","b":[0,0,0],"distance_m":1}]})"; }
+  r = run_cli("measure " + q(case_dir()) + " --reference " + q(*dir_ / "ref1.json"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("marker 'blood stain'"), std::string::npos) << r.output;
+  { std::ofstream(*dir_ / "ref2.json") << R"({"measurements":[{"name":"x","a":[0,0,0],"b":[1,0,0],"tape":1}]})"; }
+  r = run_cli("measure " + q(case_dir()) + " --reference " + q(*dir_ / "ref2.json"));
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("unknown key 'tape'"), std::string::npos) << r.output;
+  EXPECT_EQ(read(case_dir() / "manifest.json"), manifest);
+  EXPECT_EQ(run_cli("verify " + q(case_dir())).exit_code, 0);
+}
+
+TEST_F(ReconstructCli, SameInputAndSeedGiveTheSameModel) {
+  const fs::path again = *dir_ / "again";
+  const auto r = run_cli(reconstruct_args(again));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* f : {"alignment/trajectory.txt", "mesh/mesh.ply", "mesh/mesh.glb",
+                        "cloud/registered.ply", "measurements/table.csv"})
+    EXPECT_EQ(sha256_file(again / f), sha256_file(case_dir() / f)) << f;
+}
+
+TEST_F(ReconstructCli, MarkersTrajectoriesAndMeasurementsJoinTheCaseThroughTheLog) {
+  const fs::path c = *dir_ / "markers-case";
+  ASSERT_EQ(run_cli(reconstruct_args(c)).exit_code, 0);
+  // Points on the surfaces the first views see (the room's west part, x < 0).
+  auto r = run_cli("marker add " + q(c) + " --label 'bullet hole' --at -1.92,-0.3,1.4 --no-report");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = run_cli("marker add " + q(c) + " --label 'bullet hole' --at -1.92,-0.2,1.4");
+  EXPECT_EQ(r.exit_code, 2) << r.output;  // duplicate label
+  r = run_cli("marker list " + q(c));
+  EXPECT_NE(r.output.find("1,bullet hole,-1.9"), std::string::npos) << r.output;
+  r = run_cli("trajectory " + q(c) + " --name shot --point 0,0,1.2 --point 1 --sigma 0.003 --no-report");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("backward hit"), std::string::npos) << r.output;
+  r = run_cli("measure " + q(c) + " --name wall --plane -1.92,-0.3,1.4 --plane2 -1.92,-0.3,1.2");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(fs::exists(c / "evidence" / "markers.csv"));
+  EXPECT_TRUE(fs::exists(c / "trajectories" / "analyses.json"));
+  EXPECT_TRUE(fs::exists(c / "measurements" / "measurements.json"));
+  const std::string html = read(c / "report" / "report.html");
+  EXPECT_NE(html.find("id=\"evidence-table\""), std::string::npos);
+  EXPECT_NE(html.find("id=\"trajectory-table\""), std::string::npos);
+  r = run_cli("verify " + q(c));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+}
+
+}  // namespace
+}  // namespace locard::forensics
