@@ -104,7 +104,10 @@ fs::path find_web_root(const fs::path& executable) {
   if (!executable.empty()) {
     std::error_code ec;
     const fs::path exe = fs::weakly_canonical(executable, ec);
-    if (!ec) candidates.push_back(exe.parent_path().parent_path() / "share/locard/viewer");
+    if (!ec) {
+      candidates.push_back(exe.parent_path() / "viewer");  // the build tree: build/<preset>/
+      candidates.push_back(exe.parent_path().parent_path() / "share/locard/viewer");
+    }
   }
 #ifdef LOCARD_VIEWER_BUILD_DIR
   candidates.emplace_back(LOCARD_VIEWER_BUILD_DIR);

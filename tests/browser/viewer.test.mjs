@@ -25,7 +25,7 @@ const opt = (name, fallback) => {
   return i >= 0 && i + 1 < args.length ? args[i + 1] : fallback;
 };
 const mode = opt('--mode', 'main');
-const locard = path.resolve(opt('--locard', 'build/release/apps/locard/locard'));
+const locard = path.resolve(opt('--locard', 'build/release/locard'));
 const nodeModules = path.resolve(opt('--node-modules', 'build/release/web/viewer/node_modules'));
 const artefacts = path.resolve(opt('--artefacts', 'build/release/test-artefacts'));
 const work = path.resolve(opt('--work', `build/release/tests/browser/work-${mode}`));
@@ -237,8 +237,9 @@ async function mainTest() {
       const wall = known[0];
       await clickWorldPoint(page, wall.a, centre);
       await page.waitForFunction(() => document.getElementById('tool-result').textContent.startsWith('first point'));
-      await clickWorldPoint(page, [wall.a[0] * 0.5 + wall.b[0] * 0.5, wall.a[1] * 0.5 + wall.b[1] * 0.5, 0.0], centre, 1.5);
-      await page.waitForFunction(() => window.locardViewer.state.lastTrajectory, null, { timeout: 60000 });
+      // Entry on one wall, exit lower on the opposite wall: a downward shot across the room.
+      await clickWorldPoint(page, [wall.b[0], wall.b[1], wall.b[2] - 0.4], centre);
+      await page.waitForFunction(() => window.locardViewer.state.lastTrajectory, null, { timeout: 30000 });
       const traj = await page.evaluate(() => window.locardViewer.state.lastTrajectory);
       log(`trajectory ${traj.name}: az ${traj.horizontal_angle_deg.toFixed(2)} deg, el ${traj.vertical_angle_deg.toFixed(2)} deg, cone ${traj.cone_half_angle_deg.toFixed(3)} deg`);
       assert.ok(Number.isFinite(traj.horizontal_angle_deg) && Number.isFinite(traj.cone_half_angle_deg));
@@ -273,6 +274,8 @@ async function mainTest() {
         const t2 = await page.evaluate(() => window.locardViewer.simulationTime());
         log(`simulation: mixer time ${t1.toFixed(3)} s -> ${t2.toFixed(3)} s`);
         assert.ok(t2 > t1 + 0.1, `the simulation plays (mixer time ${t1} -> ${t2})`);
+        // Paused for the screenshot: software WebGL rendering every frame starves the capture.
+        await page.evaluate(() => window.locardViewer.playSimulation(false));
         await shot(page, 'viewer-07-simulation.png');
       } else {
         log('SKIPPED simulation playback: this build has no `locard simulate`');
@@ -299,7 +302,7 @@ async function fpsTest() {
     log('scan-sim');
     run(['scan-sim', '-o', scan, '--views', '12']);
     log('mesh (fine voxel, decimated)');
-    run(['mesh', scan, '-o', path.join(caseDir, 'mesh'), '--voxel', opt('--voxel', '0.008'), '--target-triangles', String(triangles), '--format', 'glb', '--no-cloud']);
+    run(['mesh', scan, '-o', path.join(caseDir, 'mesh'), '--voxel', opt('--voxel', '0.006'), '--target-triangles', String(triangles), '--format', 'glb', '--no-cloud']);
     fs.writeFileSync(path.join(caseDir, 'case.json'), JSON.stringify({ title: `FPS test: ${triangles} triangles` }));
     fs.writeFileSync(stamp, '');
   }

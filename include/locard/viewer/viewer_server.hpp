@@ -34,8 +34,9 @@ std::string random_token();
 bool token_matches(std::string_view expected, std::string_view given);
 
 // Finds the viewer bundle (a folder with index.html): $LOCARD_VIEWER_DIR, then
-// <folder of the executable>/../share/locard/viewer (an install), then the build tree's bundle
-// (LOCARD_VIEWER_BUILD_DIR, set at compile time). Empty when none has index.html.
+// <folder of the executable>/viewer (the build tree), <folder of the executable>/../share/
+// locard/viewer (an install), then the build tree's bundle (LOCARD_VIEWER_BUILD_DIR, set at
+// compile time). Empty when none has index.html.
 std::filesystem::path find_web_root(const std::filesystem::path& executable);
 
 class ViewerServer {

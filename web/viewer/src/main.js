@@ -386,6 +386,7 @@ async function loadMarkers() {
     list.appendChild(li);
   }
   fillWitnessChoices();
+  if (state.loaded) status(`${state.meshTriangles.toLocaleString('en')} triangles, ${state.points.toLocaleString('en')} points, ${state.markers.length} markers`);
   requestRender();
   return data.markers;
 }
