@@ -113,9 +113,12 @@ void register_marker(CLI::App& app, GlobalOptions&) {
   frame->add_option("--xy-point", o->xy_point, "x,y,z or a marker in the xy plane")->required();
   frame->add_option("--description", o->description, "What the frame is");
   frame->add_flag("--no-report", o->no_report, "Do not rewrite the report");
-  set_runner(add, [o] { return run_add(*o); });
-  set_runner(list, [o] { return run_list(*o); });
-  set_runner(frame, [o] { return run_frame(*o); });
+  set_runner(cmd, [o, add, list, frame] {
+    if (add->parsed()) return run_add(*o);
+    if (list->parsed()) return run_list(*o);
+    if (frame->parsed()) return run_frame(*o);
+    return 2;
+  });
 }
 
 }  // namespace locard::cli

@@ -3,6 +3,7 @@
 
 #include <locard/core/error.hpp>
 
+#include <Eigen/LU>
 #include <gtest/gtest.h>
 
 #include "test_support.hpp"
@@ -17,7 +18,7 @@ using Eigen::Vector3d;
 TEST(CaseFrame, FromThreePointsIsRightHandedAndOrthonormal) {
   // Origin at a room corner, x along the south wall, y into the room.
   const CaseFrame f = CaseFrame::from_points(Vector3d(-1.92, -2.0, 0), Vector3d(1.92, -2.0, 0),
-                                             Vector3d(-1.92, 2.0, 0.5), "SW corner");
+                                             Vector3d(-1.92, 2.0, 0.0), "SW corner");
   EXPECT_TRUE((f.axes.transpose() * f.axes).isApprox(Eigen::Matrix3d::Identity(), 1e-12));
   EXPECT_NEAR(f.axes.determinant(), 1.0, 1e-12);
   const Vector3d local = f.to_local(Vector3d(0, 0, 1));
@@ -68,8 +69,8 @@ TEST(MarkerSet, JsonAndCsvRoundTrip) {
   EXPECT_TRUE(back.markers[0].world.isApprox(m.world));
   EXPECT_TRUE(back.frame.axes.isApprox(s.frame.axes));
   const std::string csv = markers_csv(back);
-  // x along world +y from (1,0,0): local (0.5, 0.5, 0.25).
-  EXPECT_NE(csv.find("1,\"knife, kitchen\",0.5000,0.5000,0.2500,1.5000,0.5000,0.2500,0.0040,"
+  // x along world +y from (1,0,0), y along world -x: local (0.5, -0.5, 0.25).
+  EXPECT_NE(csv.find("1,\"knife, kitchen\",0.5000,-0.5000,0.2500,1.5000,0.5000,0.2500,0.0040,"
                      "\"under the \"\"table\"\"\""),
             std::string::npos)
       << csv;

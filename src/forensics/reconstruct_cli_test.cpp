@@ -152,17 +152,19 @@ TEST_F(ReconstructCli, SameInputAndSeedGiveTheSameModel) {
 TEST_F(ReconstructCli, MarkersTrajectoriesAndMeasurementsJoinTheCaseThroughTheLog) {
   const fs::path c = *dir_ / "markers-case";
   ASSERT_EQ(run_cli(reconstruct_args(c)).exit_code, 0);
-  // Points on the surfaces the first views see (the room's west part, x < 0).
-  auto r = run_cli("marker add " + q(c) + " --label 'bullet hole' --at -1.92,-0.3,1.4 --no-report");
+  // Points on the surfaces the first 8 views see (the east wall, x = 1.92).
+  auto r = run_cli("marker add " + q(c) + " --label 'bullet hole' --at 1.92,-0.3,1.4 --no-report");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  r = run_cli("marker add " + q(c) + " --label 'bullet hole' --at -1.92,-0.2,1.4");
+  r = run_cli("marker add " + q(c) + " --label 'bullet hole' --at 1.92,-0.2,1.4");
   EXPECT_EQ(r.exit_code, 2) << r.output;  // duplicate label
   r = run_cli("marker list " + q(c));
-  EXPECT_NE(r.output.find("1,bullet hole,-1.9"), std::string::npos) << r.output;
-  r = run_cli("trajectory " + q(c) + " --name shot --point 0,0,1.2 --point 1 --sigma 0.003 --no-report");
+  EXPECT_NE(r.output.find("1,bullet hole,1.9"), std::string::npos) << r.output;
+  r = run_cli("trajectory " + q(c) + " --name shot --point 0,0,1.2 --point 0.5,-0.03,1.25 --no-report");
   ASSERT_EQ(r.exit_code, 0) << r.output;
-  EXPECT_NE(r.output.find("backward hit"), std::string::npos) << r.output;
-  r = run_cli("measure " + q(c) + " --name wall --plane -1.92,-0.3,1.4 --plane2 -1.92,-0.3,1.2");
+  EXPECT_NE(r.output.find("forward hit at (1.9"), std::string::npos) << r.output;
+  r = run_cli("trajectory " + q(c) + " --name rod --point 1 --point 0,0,1.2 --sigma 0.003 --no-report");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = run_cli("measure " + q(c) + " --name wall --plane 1.92,-0.3,1.4 --plane2 1.92,-0.3,1.2");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_TRUE(fs::exists(c / "evidence" / "markers.csv"));
   EXPECT_TRUE(fs::exists(c / "trajectories" / "analyses.json"));
