@@ -344,9 +344,25 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
     const FrameAlignment& ft = result.frames[result.node_frames[e.target]];
     sigmas.push_back(std::max({floor_sigma, fs_.inlier_rmse, ft.inlier_rmse}));
   }
-  const std::vector<Matrix6d> covariances =
+  std::vector<Matrix6d> covariances =
       sigmas.empty() ? std::vector<Matrix6d>(result.graph.nodes.size(), Matrix6d::Zero())
                      : pose_covariances(result.graph, sigmas, ao.pose_graph.fixed_node);
+  // A posteriori variance factor (least-squares adjustment): the weighted chi2 of the kept
+  // edges over the redundancy (6 per edge - 6 per free node). Above 1, the registrations
+  // disagree more than their stated precision, and every covariance is inflated by it.
+  double variance_factor = 1.0;
+  {
+    double chi2 = 0.0;
+    for (std::size_t e = 0; e < result.graph.edges.size(); ++e) {
+      const PoseGraphEdge& edge = result.graph.edges[e];
+      const double w = (edge.uncertain ? edge.confidence : 1.0) / (sigmas[e] * sigmas[e]);
+      chi2 += w * edge_chi2(edge, result.graph.nodes);
+    }
+    const double redundancy = 6.0 * static_cast<double>(result.graph.edges.size()) -
+                              6.0 * static_cast<double>(result.graph.nodes.size() - 1);
+    if (redundancy > 0) variance_factor = std::max(1.0, chi2 / redundancy);
+    for (Matrix6d& c : covariances) c *= variance_factor;
+  }
 
   const StageReport stage = make_stage_report(result, sequence);
   write_stage_report_json(folder.path("alignment/stage_report.json"), result, stage);
@@ -400,6 +416,7 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
                {{"convention", "covariance: 6x6, left perturbation exp(delta) T_world_camera, "
                                "delta = (rotation rad, translation m) in the world frame"},
                 {"residual_sigma_m", sigmas},
+                {"variance_factor", variance_factor},
                 {"views", views}});
   }
   std::size_t loops = 0;
