@@ -35,6 +35,7 @@ struct AlignCliOptions {
   std::string sequence;
   std::string output;
   std::string mode = "cumulative";
+  std::string odometry_icp = "colored";
   double voxel = 0.02;
   int stride = 2;
   double min_depth = 0.3;
@@ -130,6 +131,11 @@ int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
 
   AlignmentOptions o;
   o.mode = *mode;
+  const auto odometry_icp = parse_icp_method(opt.odometry_icp);
+  if (!odometry_icp || *odometry_icp == IcpMethod::PointToPoint)
+    throw InputError(fmt::format("--odometry-icp must be colored or point-to-plane, got '{}'",
+                                 opt.odometry_icp));
+  o.odometry_method = *odometry_icp;
   o.voxel_size = opt.voxel;
   o.stride = opt.stride;
   o.min_depth_m = opt.min_depth;
@@ -220,6 +226,10 @@ void register_align(CLI::App& app, GlobalOptions& global) {
   cmd->add_option("--mode", options->mode,
                   "cumulative (each view against the model of all earlier views, features + "
                   "ICP) or odometry (frame-to-local-model coloured ICP, for video)")
+      ->capture_default_str();
+  cmd->add_option("--odometry-icp", options->odometry_icp,
+                  "Odometry mode, last ICP level: colored (colour registered to depth) or "
+                  "point-to-plane")
       ->capture_default_str();
   cmd->add_option("--voxel", options->voxel, "Voxel size of frames and model (m)")
       ->capture_default_str()

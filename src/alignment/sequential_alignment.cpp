@@ -274,7 +274,7 @@ AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOpti
   // 2. Sequential registration.
   t0 = Clock::now();
   const IcpMethod method =
-      o.mode == AlignmentMode::Odometry ? IcpMethod::Colored : IcpMethod::PointToPlane;
+      o.mode == AlignmentMode::Odometry ? o.odometry_method : IcpMethod::PointToPlane;
   Target model;                              // world frame
   std::vector<std::size_t> keyframes_local;  // odometry: frames in the local model
   std::vector<std::size_t> piece_of(n, 0);

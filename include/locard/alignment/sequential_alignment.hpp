@@ -39,6 +39,7 @@
 #include <locard/core/pose.hpp>
 #include <locard/core/progress.hpp>
 #include <locard/io/rgbd_sequence.hpp>
+#include <locard/registration/icp.hpp>
 
 #include <cstddef>
 #include <cstdint>
@@ -68,6 +69,10 @@ struct AlignmentOptions {
   double min_fitness = 0.3;
   double max_inlier_rmse_ratio = 0.8;  // x voxel_size
   std::size_t local_model_frames = 8;  // odometry: keyframes in the local model
+  // Odometry: the method of the last ICP level (the coarser levels are point to plane).
+  // Coloured needs colour registered to depth; point to plane suits sensors whose colour
+  // camera is offset and unregistered (7-Scenes' Kinect v1).
+  IcpMethod odometry_method = IcpMethod::Colored;
   std::size_t max_consecutive_failures = 10;
   // Loop closure
   bool loop_closure = true;
