@@ -88,13 +88,16 @@ async function openViewer(page, url) {
 
 const shot = async (page, name) => {
   const file = path.join(artefacts, name);
-  await page.screenshot({ path: file });
+  // Software WebGL on a busy machine can keep the compositor waiting: a generous timeout.
+  await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+  await page.screenshot({ path: file, timeout: 120000 });
   log('screenshot', file);
 };
 
-// Points the orbit camera at a world point from `distance` metres towards `towards`, then clicks
-// the canvas where the point appears (the viewer ray-casts the click onto the mesh).
-async function clickWorldPoint(page, p, towards, distance = 1.2) {
+// Points the orbit camera at a world point from `distance` metres towards `towards` (close, so
+// that nothing stands between the camera and the point), then clicks the canvas where the
+// point appears (the viewer ray-casts the click onto the mesh).
+async function clickWorldPoint(page, p, towards, distance = 0.35) {
   const d = [towards[0] - p[0], towards[1] - p[1], towards[2] - p[2]];
   const n = Math.hypot(...d);
   const from = p.map((v, i) => v + (d[i] / n) * distance);
@@ -128,9 +131,9 @@ async function mainTest() {
     const scenario = path.join(work, 'drop.json');
     fs.writeFileSync(scenario, JSON.stringify({
       name: 'drop', description: 'a box dropped onto the floor (browser test)', duration: 2.0, fps: 30,
-      objects: [{ name: 'box', shape: 'box', size: [0.3, 0.2, 0.15], position: [0.3, 0.2, 1.2], mass: 2.0 }],
+      objects: [{ name: 'box', shape: 'box', size: [0.3, 0.2, 0.15], position: [-1.0, 1.3, 1.0], mass: 2.0 }],
     }, null, 2));
-    run(['simulate', caseDir, scenario]);
+    run(['simulate', caseDir, scenario, '--force']);
     simulation = 'drop';
   }
   const known = JSON.parse(fs.readFileSync(path.join(scan, 'measurements.json'), 'utf8')).measurements;
