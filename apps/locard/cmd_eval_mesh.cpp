@@ -24,6 +24,7 @@ struct EvalMeshOptions {
   std::string ground_truth;
   std::string mesh;
   std::string views;
+  std::string samples;
   bool all_surface = false;
   double threshold = 0.02;
   double spacing = 0.01;
@@ -47,6 +48,7 @@ int run_eval_mesh(const EvalMeshOptions& o) {
   options.completeness_threshold = o.threshold;
   options.sample_spacing = o.spacing;
   options.seed = o.seed;
+  options.keep_samples = !o.samples.empty();
   fs::path views = o.views;
   if (views.empty() && !o.all_surface) {
     const fs::path folder = fs::path(o.ground_truth).parent_path();
@@ -71,6 +73,7 @@ int run_eval_mesh(const EvalMeshOptions& o) {
                           views.string());
   }
   const MeshEvaluation r = evaluate_mesh(gt, mesh, options);
+  if (!o.samples.empty()) write_ply(o.samples, r.samples);
   if (o.json) {
     std::printf("%s\n", nlohmann::json{{"ground_truth", o.ground_truth},
                                        {"mesh", o.mesh},
@@ -127,6 +130,9 @@ void register_eval_mesh(CLI::App& app, GlobalOptions& /*global*/) {
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   sub->add_option("--seed", opt->seed, "Sampling seed")->capture_default_str();
+  sub->add_option("--samples", opt->samples,
+                  "Write the counted ground-truth samples as a PLY cloud with their distance "
+                  "to the mesh and the number of views that saw them (where the mesh misses)");
   sub->add_flag("--json", opt->json, "Print machine-readable JSON");
   set_runner(sub, [opt]() { return run_eval_mesh(*opt); });
 }

@@ -22,6 +22,8 @@ using TriangleIterator = std::vector<Triangle>::const_iterator;
 using Primitive = CGAL::AABB_triangle_primitive<Kernel, TriangleIterator>;
 using Tree = CGAL::AABB_tree<CGAL::AABB_traits<Kernel, Primitive>>;
 
+const double kMaxTanIncidence = std::tan(80.0 * 3.14159265358979323846 / 180.0);
+
 // Exact point-to-surface distances; degenerate triangles (no area) are left out.
 class SurfaceDistance {
  public:
@@ -56,12 +58,18 @@ class SurfaceDistance {
 };
 
 // Seen: in front of a view, facing it (the ground truth's winding gives the outside), and
-// where that view measured about the sample's depth.
-bool seen_by_any(const Eigen::Vector3f& p, const Eigen::Vector3f& normal,
-                 const std::vector<EvaluationView>& views, double tolerance) {
+// where that view measured the sample's depth. The depth read is the nearest pixel's, whose ray
+// passes up to 0.71 pixel from the sample; on a surface inclined by theta to the ray that moves
+// the depth by up to 0.71 * z / f * tan(theta) (tan capped at 80 degrees), so that is added to
+// the fixed tolerance. The fixed part stays below the thickness of things flush with a wall (a
+// 2-3 cm door or window): the wall behind them is occluded, not seen.
+int seen_by(const Eigen::Vector3f& p, const Eigen::Vector3f& normal,
+            const std::vector<EvaluationView>& views, double tolerance, bool count_all) {
+  int seen = 0;
   for (const EvaluationView& view : views) {
-    if (normal.cast<double>().dot(view.T_world_camera.translation() - p.cast<double>()) <= 0.0)
-      continue;
+    const Eigen::Vector3d to_camera = view.T_world_camera.translation() - p.cast<double>();
+    const double facing = normal.cast<double>().dot(to_camera);
+    if (facing <= 0.0) continue;
     const Eigen::Vector3d c = view.T_world_camera.inverse() * p.cast<double>();
     if (c.z() <= 0.0) continue;
     const CameraIntrinsics& k = view.intrinsics;
@@ -70,9 +78,17 @@ bool seen_by_any(const Eigen::Vector3f& p, const Eigen::Vector3f& normal,
     if (u < 0 || v < 0 || u >= view.depth.width() || v >= view.depth.height()) continue;
     const std::uint16_t raw = view.depth.at(static_cast<int>(u), static_cast<int>(v));
     if (raw == 0) continue;
-    if (std::abs(raw / view.depth_scale - c.z()) <= tolerance) return true;
+    const double cos_incidence = facing / to_camera.norm();
+    const double tan_incidence =
+        std::min(std::sqrt(std::max(0.0, 1.0 - cos_incidence * cos_incidence)) / cos_incidence,
+                 kMaxTanIncidence);
+    const double slope = 0.71 * c.z() / std::min(k.fx, k.fy) * tan_incidence;
+    if (std::abs(raw / view.depth_scale - c.z()) <= tolerance + slope) {
+      ++seen;
+      if (!count_all) break;
+    }
   }
-  return false;
+  return seen;
 }
 
 }  // namespace
@@ -141,15 +157,22 @@ MeshEvaluation evaluate_mesh(const TriangleMesh& ground_truth, const TriangleMes
   std::vector<Eigen::Vector3f> samples =
       sample_surface_with_normals(ground_truth, options.sample_spacing, options.seed, &normals);
   result.gt_samples = samples.size();
+  std::vector<int> view_counts;
   if (!options.views.empty()) {
-    std::vector<std::uint8_t> seen(samples.size());
+    std::vector<int> seen(samples.size());
     tbb::parallel_for(std::size_t{0}, samples.size(), [&](std::size_t i) {
-      seen[i] = seen_by_any(samples[i], normals[i], options.views, options.visibility_tolerance);
+      seen[i] = seen_by(samples[i], normals[i], options.views, options.visibility_tolerance,
+                        options.keep_samples);
     });
     std::size_t kept = 0;
     for (std::size_t i = 0; i < samples.size(); ++i)
-      if (seen[i]) samples[kept++] = samples[i];
+      if (seen[i] > 0) {
+        seen[kept] = seen[i];
+        samples[kept++] = samples[i];
+      }
     samples.resize(kept);
+    seen.resize(kept);
+    view_counts = std::move(seen);
   }
   result.counted_samples = samples.size();
   if (!samples.empty()) {
@@ -164,6 +187,14 @@ MeshEvaluation evaluate_mesh(const TriangleMesh& ground_truth, const TriangleMes
     }
     result.completeness = static_cast<double>(within) / static_cast<double>(d.size());
     result.completeness_mean_distance = sum / static_cast<double>(d.size());
+    if (options.keep_samples) {
+      result.samples.positions = samples;
+      ScalarField distance{"distance", std::vector<float>(d.begin(), d.end())};
+      ScalarField views{"views", std::vector<float>(samples.size(), 0.f)};
+      for (std::size_t i = 0; i < view_counts.size(); ++i)
+        views.values[i] = static_cast<float>(view_counts[i]);
+      result.samples.scalars = {std::move(distance), std::move(views)};
+    }
   }
   return result;
 }
