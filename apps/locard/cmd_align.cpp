@@ -11,6 +11,7 @@
 #include "commands.hpp"
 
 #include <locard/alignment/pose_graph.hpp>
+#include <locard/alignment/scan_alignment.hpp>
 #include <locard/alignment/sequential_alignment.hpp>
 #include <locard/alignment/stage_report.hpp>
 #include <locard/core/atomic_file.hpp>
@@ -18,13 +19,19 @@
 #include <locard/core/progress.hpp>
 #include <locard/io/point_cloud_io.hpp>
 #include <locard/io/rgbd_sequence.hpp>
+#include <locard/io/stanford_conf.hpp>
+#include <locard/preprocess/voxel_grid.hpp>
 #include <locard/io/trajectory_io.hpp>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <Eigen/Geometry>
+
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <string>
 
@@ -110,8 +117,161 @@ void write_pose_graph_json(const std::filesystem::path& path, const AlignmentRes
   file.commit();
 }
 
+// A set of range scans (a Stanford .conf with its scans, or a folder of PLY/PCD scans, each in
+// its sensor's frame): multiway registration from identity (scan_alignment.hpp). Writes
+//   aligned.conf       the estimated poses in the .conf convention (T_world_scan = [R(q)^T | t]),
+//                      in the frame of the first scan
+//   scan_alignment.json per-scan poses (and errors against the input .conf when there is one),
+//                      the pairs with their verification
+//   fused.ply          the placed scans in one cloud (voxel grid of --voxel / 4)
+int run_align_scans(const AlignCliOptions& opt, const GlobalOptions& global) {
+  namespace fs = std::filesystem;
+  std::vector<std::string> names;
+  std::vector<fs::path> files;
+  std::optional<StanfordConf> conf;
+  fs::path conf_path = opt.sequence;
+  if (fs::is_directory(conf_path)) {
+    std::vector<fs::path> confs, clouds;
+    for (const auto& e : fs::directory_iterator(conf_path)) {
+      if (e.path().extension() == ".conf") confs.push_back(e.path());
+      else if (is_point_cloud_file(e.path())) clouds.push_back(e.path());
+    }
+    std::sort(confs.begin(), confs.end());
+    std::sort(clouds.begin(), clouds.end());
+    if (!confs.empty()) conf_path = confs.front();
+    else {
+      for (const fs::path& c : clouds) {
+        names.push_back(c.filename().string());
+        files.push_back(c);
+      }
+    }
+  }
+  if (files.empty()) {
+    conf = read_stanford_conf(conf_path);
+    for (const RangeScan& s : conf->scans) {
+      names.push_back(s.name);
+      files.push_back(s.file);
+    }
+  }
+  if (files.size() < 2)
+    throw_input_error(opt.sequence, fmt::format("expected at least two scans, found {}",
+                                                files.size()));
+  if (fs::exists(opt.output) && !fs::is_empty(opt.output) && !opt.force)
+    throw_input_error(opt.output, "output folder is not empty; pass --force to write into it");
+  std::vector<PointCloud> scans;
+  for (const fs::path& f : files) scans.push_back(read_point_cloud(f));
+  ScanAlignmentOptions o;
+  o.seed = opt.seed;
+  const ScanAlignmentResult r = align_scans(scans, o);
+
+  fs::create_directories(opt.output);
+  const fs::path out(opt.output);
+  nlohmann::json jscans = nlohmann::json::array();
+  std::string conf_text;
+  double worst_deg = 0.0, worst_m = 0.0;
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    nlohmann::json j = {{"name", names[i]}, {"placed", r.placed[i] != 0}};
+    if (!r.placed[i]) {
+      std::fprintf(stderr, "locard: scan %s could not be connected to the others\n",
+                   names[i].c_str());
+      jscans.push_back(j);
+      continue;
+    }
+    j["T_world_scan"] = pose_json(r.T_world_scan[i]);
+    const Eigen::Quaterniond q(Eigen::Matrix3d(r.T_world_scan[i].linear().transpose()));
+    const Eigen::Vector3d t = r.T_world_scan[i].translation();
+    conf_text += fmt::format("bmesh {} {:.9g} {:.9g} {:.9g} {:.9g} {:.9g} {:.9g} {:.9g}\n", names[i],
+                             t.x(), t.y(), t.z(), q.x(), q.y(), q.z(), q.w());
+    if (conf) {
+      // bun.conf's frame through the first scan.
+      const Isometry3d estimate = conf->scans[0].T_world_scan * r.T_world_scan[i];
+      const double dr = rotation_difference_deg(conf->scans[i].T_world_scan, estimate);
+      const double dt = translation_difference_m(conf->scans[i].T_world_scan, estimate);
+      j["error_deg"] = dr;
+      j["error_m"] = dt;
+      worst_deg = std::max(worst_deg, dr);
+      worst_m = std::max(worst_m, dt);
+      if (!global.quiet)
+        fmt::print("align: {:<14} {:.3f} deg, {:.3f} mm from the input .conf\n", names[i], dr,
+                   1000.0 * dt);
+    }
+    jscans.push_back(j);
+  }
+  nlohmann::json jpairs = nlohmann::json::array();
+  std::size_t verified = 0, kept = 0;
+  for (const ScanPair& p : r.pairs) {
+    verified += p.verified;
+    kept += p.kept;
+    jpairs.push_back({{"source", names[p.source]},
+                      {"target", names[p.target]},
+                      {"verified", p.verified},
+                      {"spanning_tree", p.in_tree},
+                      {"kept", p.kept},
+                      {"fitness", p.fitness},
+                      {"inlier_rmse", p.inlier_rmse},
+                      {"reason", p.reason},
+                      {"T_target_source", pose_json(p.T_target_source)}});
+  }
+  {
+    AtomicFile file(out / "aligned.conf", false);
+    file.stream() << conf_text;
+    file.commit();
+  }
+  {
+    nlohmann::json j = {{"convention", "T_world_scan maps scan points into the first scan's "
+                                       "frame; aligned.conf uses the Stanford convention "
+                                       "[R(q)^T | t]"},
+                        {"seed", opt.seed},
+                        {"scans", jscans},
+                        {"pairs", jpairs},
+                        {"seconds", r.seconds}};
+    AtomicFile file(out / "scan_alignment.json", false);
+    file.stream() << j.dump(1) << '\n';
+    file.commit();
+  }
+  PointCloud fused;
+  for (std::size_t i = 0; i < scans.size(); ++i) {
+    if (!r.placed[i]) continue;
+    PointCloud c = voxel_down_sample(scans[i], static_cast<float>(o.voxel_size / 2.0)).cloud;
+    const Eigen::Isometry3f T = r.T_world_scan[i].cast<float>();
+    for (auto& p : c.positions) p = T * p;
+    for (auto& n : c.normals) n = T.linear() * n;
+    fused.append(c);
+  }
+  if (!fused.empty()) write_point_cloud(out / "fused.ply", fused);
+  std::size_t placed = 0;
+  for (char p : r.placed) placed += p != 0;
+  if (!global.quiet) {
+    fmt::print("align: {} of {} scans placed; {} of {} pairs verified, {} kept{}; {:.1f} s; "
+               "wrote {}\n",
+               placed, scans.size(), verified, r.pairs.size(), kept,
+               conf ? fmt::format("; worst {:.3f} deg, {:.3f} mm from the input .conf", worst_deg,
+                                  1000.0 * worst_m)
+                    : std::string(),
+               r.seconds, opt.output);
+  }
+  return placed >= 2 ? 0 : 3;
+}
+
+bool is_scan_folder(const std::filesystem::path& path) {
+  namespace fs = std::filesystem;
+  if (!fs::is_directory(path)) return false;
+  std::size_t clouds = 0;
+  for (const auto& e : fs::directory_iterator(path)) {
+    if (e.path().extension() == ".conf") return true;
+    clouds += is_point_cloud_file(e.path());
+  }
+  return clouds >= 2;
+}
+
 int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
   namespace fs = std::filesystem;
+  if (fs::exists(opt.output) && !fs::is_directory(opt.output))
+    throw_input_error(opt.output, "the output must be a folder; a file is in the way");
+  if (fs::exists(opt.sequence) &&
+      (detect_format(opt.sequence) == DatasetFormat::StanfordConf ||
+       (detect_format(opt.sequence) == DatasetFormat::Unknown && is_scan_folder(opt.sequence))))
+    return run_align_scans(opt, global);
   const auto mode = parse_alignment_mode(opt.mode);
   if (!mode)
     throw InputError(fmt::format("--mode must be cumulative or odometry, got '{}'", opt.mode));
@@ -121,7 +281,7 @@ int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
       format != DatasetFormat::Redwood)
     throw_input_error(opt.sequence,
                       fmt::format("expected an RGB-D sequence folder (TUM, 7-Scenes or Redwood), "
-                                  "found {}",
+                                  "a Stanford .conf or a folder of range scans, found {}",
                                   to_string(format)));
   if (fs::exists(opt.output) && !fs::is_directory(opt.output))
     throw_input_error(opt.output, "the output must be a folder; a file is in the way");
@@ -220,8 +380,12 @@ void register_align(CLI::App& app, GlobalOptions& global) {
       "align",
       "Align every frame of an RGB-D sequence (TUM, 7-Scenes, Redwood): sequential "
       "registration, loop closure, pose graph; writes trajectory, pose graph, stage report and "
-      "fused cloud");
-  cmd->add_option("sequence", options->sequence, "Sequence folder")->required();
+      "fused cloud. Or a set of range scans (a Stanford .conf, or a folder holding one or only "
+      "PLY/PCD scans): multiway registration from identity; writes aligned.conf, "
+      "scan_alignment.json and fused.ply");
+  cmd->add_option("sequence", options->sequence,
+                  "Sequence folder, .conf file or folder of range scans")
+      ->required();
   cmd->add_option("-o,--output", options->output, "Output folder")->required();
   cmd->add_option("--mode", options->mode,
                   "cumulative (each view against the model of all earlier views, features + "

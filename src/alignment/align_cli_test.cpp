@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 
@@ -53,6 +54,49 @@ TEST(AlignCli, WritesTrajectoryPoseGraphReportAndFusedCloud) {
   const auto again = test::run_cli(args);
   EXPECT_EQ(again.exit_code, 2) << again.output;
   EXPECT_NE(again.output.find("--force"), std::string::npos) << again.output;
+}
+
+// A set of range scans instead of an RGB-D sequence: multiway registration from identity. Three
+// bunny scans in a folder of their own (no .conf: each scan is in its sensor's frame), then the
+// whole bun.conf with its errors against the file.
+TEST(AlignCli, RangeScanSetsAreRegisteredFromIdentity) {
+  const fs::path base = test::scratch_dir();
+  const fs::path data = test::shared_data() / "stanford-bunny" / "bunny" / "data";
+  const fs::path scans = base / "scans";
+  fs::create_directories(scans);
+  for (const char* name : {"bun000.ply", "bun045.ply", "bun090.ply"})
+    fs::copy_file(data / name, scans / name);
+  auto r = test::run_cli("-q align '" + scans.string() + "' -o '" + (base / "a").string() + "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  for (const char* name : {"aligned.conf", "scan_alignment.json", "fused.ply"})
+    EXPECT_TRUE(fs::exists(base / "a" / name)) << name << "\n" << test::list_folder(base / "a");
+  std::ifstream in(base / "a" / "scan_alignment.json");
+  const nlohmann::json j = nlohmann::json::parse(in);
+  ASSERT_EQ(j["scans"].size(), 3u);
+  for (const auto& scan : j["scans"]) EXPECT_TRUE(scan["placed"].get<bool>()) << scan.dump();
+
+  r = test::run_cli("align '" + (data / "bun.conf").string() + "' -o '" + (base / "b").string() +
+                    "'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("10 of 10 scans placed"), std::string::npos) << r.output;
+  std::ifstream in2(base / "b" / "scan_alignment.json");
+  const nlohmann::json k = nlohmann::json::parse(in2);
+  ASSERT_EQ(k["scans"].size(), 10u);
+  for (const auto& scan : k["scans"]) {
+    EXPECT_LE(scan["error_deg"].get<double>(), 1.0) << scan.dump();
+    EXPECT_LE(scan["error_m"].get<double>(), 0.003) << scan.dump();
+  }
+  // aligned.conf is a Stanford .conf again: ten bmesh lines.
+  std::ifstream conf(base / "b" / "aligned.conf");
+  const std::string text((std::istreambuf_iterator<char>(conf)), {});
+  EXPECT_EQ(std::count(text.begin(), text.end(), '\n'), 10) << text;
+
+  // Fewer than two scans: exit 2 naming the folder.
+  const fs::path one = base / "one";
+  fs::create_directories(one);
+  fs::copy_file(data / "bun000.ply", one / "bun000.ply");
+  r = test::run_cli("align '" + one.string() + "' -o '" + (base / "c").string() + "'");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
 }
 
 TEST(AlignCli, BadInputExitsTwo) {

@@ -17,6 +17,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <string>
+#include <unistd.h>
 
 namespace locard {
 namespace {
@@ -25,11 +27,14 @@ namespace fs = std::filesystem;
 
 constexpr int kTestViews = 30;  // 12 degrees of yaw between views
 
-// The bedroom turn with kTestViews views, written once per test binary.
+// The bedroom turn with kTestViews views, written once per test process. ctest runs every test
+// of this binary in a process of its own, two at a time: a folder shared between processes was
+// deleted and rewritten by one test while another read it, so the process id is in the name.
 const fs::path& bedroom() {
   static const fs::path folder = [] {
-    // Shared by the tests of this binary (scratch folders are per test).
-    const fs::path f = fs::temp_directory_path() / "locard-alignment-test-bedroom-30";
+    const fs::path f = fs::temp_directory_path() / "locard-tests" /
+                       ("alignment-bedroom-" + std::to_string(kTestViews) + "." +
+                        std::to_string(::getpid()));
     fs::remove_all(f);
     sim::Scene scene = sim::builtin_scene("bedroom");
     scene.scanner.views = kTestViews;

@@ -6,10 +6,12 @@
 
 #include <nanoflann.hpp>
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <fmt/format.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <memory>
@@ -57,6 +59,84 @@ class DescriptorIndex {
   std::unique_ptr<DescriptorTree> tree_;
 };
 
+// Small sets (a few thousand keypoints a side, the usual case for global registration): exact
+// brute force beats a kd-tree, which in 33 dimensions visits most leaves anyway. One pass over
+// all pairs gives both directions: the best two targets of each source (row minima) and the
+// best source of each target (column minima, for the mutual filter). Targets are stored
+// dimension-major in blocks of kLanes so that the distance of one source to kLanes targets is
+// one vector loop, each pair still summed in dimension order (the kd-tree oracle's order).
+constexpr std::size_t kLanes = 8;
+constexpr std::size_t kBruteForcePairs = std::size_t{1} << 24;
+
+struct BlockedDescriptors {
+  std::size_t count = 0;
+  std::vector<float> values;  // block b, dimension d, lane l at (b * 33 + d) * kLanes + l
+  explicit BlockedDescriptors(const std::vector<Fpfh>& d) : count(d.size()) {
+    const std::size_t blocks = (count + kLanes - 1) / kLanes;
+    // Padding lanes sit at an overflowing distance (+inf), never a best match.
+    values.assign(blocks * 33 * kLanes, 1e30f);
+    for (std::size_t i = 0; i < count; ++i)
+      for (int k = 0; k < 33; ++k) values[((i / kLanes) * 33 + k) * kLanes + i % kLanes] = d[i][k];
+  }
+};
+
+struct BruteForceResult {
+  std::vector<Neighbor> best, second;  // per source (index kNone when absent)
+  std::vector<Neighbor> column;        // per target: its nearest source
+};
+
+inline bool before(float d, std::uint32_t i, const Neighbor& n) {
+  return d < n.squared_distance || (d == n.squared_distance && i < n.index);
+}
+
+BruteForceResult brute_force(const std::vector<Fpfh>& source, const std::vector<Fpfh>& target) {
+  const BlockedDescriptors blocked(target);
+  const std::size_t blocks = (target.size() + kLanes - 1) / kLanes;
+  const Neighbor none{kNone, std::numeric_limits<float>::infinity()};
+  BruteForceResult r;
+  r.best.assign(source.size(), none);
+  r.second.assign(source.size(), none);
+  tbb::enumerable_thread_specific<std::vector<Neighbor>> columns(
+      [&] { return std::vector<Neighbor>(target.size(), none); });
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, source.size(), 16), [&](const auto& range) {
+    std::vector<Neighbor>& column = columns.local();
+    for (std::size_t s = range.begin(); s != range.end(); ++s) {
+      const float* q = source[s].data();
+      Neighbor b0 = none, b1 = none;
+      for (std::size_t b = 0; b < blocks; ++b) {
+        const float* t = blocked.values.data() + b * 33 * kLanes;
+        float acc[kLanes] = {};
+        for (int k = 0; k < 33; ++k)
+          for (std::size_t l = 0; l < kLanes; ++l) {
+            const float diff = q[k] - t[k * kLanes + l];
+            acc[l] += diff * diff;
+          }
+        const std::size_t lanes = std::min(kLanes, target.size() - b * kLanes);
+        for (std::size_t l = 0; l < lanes; ++l) {
+          const auto j = static_cast<std::uint32_t>(b * kLanes + l);
+          const float d = acc[l];
+          // Targets come in increasing index: a strict test keeps ties on the smaller one.
+          if (d < b0.squared_distance) {
+            b1 = b0;
+            b0 = Neighbor{j, d};
+          } else if (d < b1.squared_distance) {
+            b1 = Neighbor{j, d};
+          }
+          if (before(d, static_cast<std::uint32_t>(s), column[j]))
+            column[j] = Neighbor{static_cast<std::uint32_t>(s), d};
+        }
+      }
+      r.best[s] = b0;
+      r.second[s] = b1;
+    }
+  });
+  r.column.assign(target.size(), none);
+  for (const auto& column : columns)
+    for (std::size_t j = 0; j < column.size(); ++j)
+      if (before(column[j].squared_distance, column[j].index, r.column[j])) r.column[j] = column[j];
+  return r;
+}
+
 void check_finite(const std::vector<Fpfh>& descriptors, const char* which) {
   for (std::size_t i = 0; i < descriptors.size(); ++i) {
     if (!descriptors[i].allFinite()) {
@@ -77,6 +157,23 @@ std::vector<Correspondence> match_descriptors(const std::vector<Fpfh>& source,
   if (ratio_test && !(options.ratio > 0.0f)) {
     throw InputError(fmt::format("descriptor matching: the ratio must be in (0, 1], got {}",
                                  options.ratio));
+  }
+
+  if (source.size() * target.size() <= kBruteForcePairs) {
+    const BruteForceResult r = brute_force(source, target);
+    std::vector<Correspondence> matches;
+    for (std::size_t s = 0; s < source.size(); ++s) {
+      const Neighbor& f = r.best[s];
+      if (f.index == kNone) continue;
+      // Lowe 2004, as below; a lone target has no second neighbour and passes.
+      if (ratio_test && r.second[s].index != kNone &&
+          !(f.squared_distance < options.ratio * options.ratio * r.second[s].squared_distance))
+        continue;
+      if (options.mutual && r.column[f.index].index != s) continue;
+      matches.push_back(Correspondence{static_cast<std::uint32_t>(s), f.index,
+                                       std::sqrt(f.squared_distance)});
+    }
+    return matches;
   }
 
   // Forward: nearest (and second-nearest for the ratio test) target of every source.

@@ -104,6 +104,22 @@ TEST(DescriptorMatching, EqualsBruteForce) {
   EXPECT_EQ(match_descriptors(source, target, MatchOptions{true, 1.f}), mutual);
 }
 
+TEST(DescriptorMatching, LargeSetsTakeTheTreeAndStillEqualBruteForce) {
+  // 4200 x 4100 pairs: above the brute-force threshold (2^24 pairs), so the kd-tree path runs.
+  const auto source = random_descriptors(4200, 11);
+  auto target = random_descriptors(4100, 12);
+  std::mt19937 rng(13);
+  std::normal_distribution<float> noise(0.f, 3.f);
+  for (std::size_t i = 0; i < 1000; ++i) {
+    target[4 * i] = source[i];
+    for (int k = 0; k < 33; ++k) target[4 * i][k] += noise(rng);
+  }
+  const MatchOptions options{true, 0.9f};
+  const auto matches = match_descriptors(source, target, options);
+  expect_same_matches(matches, brute_force_matches(source, target, options));
+  EXPECT_GT(matches.size(), 900u);
+}
+
 TEST(DescriptorMatching, TiesEmptyAndSingleTarget) {
   const auto source = random_descriptors(10, 4);
   std::vector<Fpfh> target(5, source[3]);  // five identical targets

@@ -182,6 +182,26 @@ TEST(VoxelGrid, SameBitsWithOneThread) {
   expect_identical(voxel_down_sample(cloud, 0.05f), parallel);
 }
 
+// Clouds of 2^19 points or more take the bucketed path (a stable scatter into cache-sized
+// buckets of consecutive keys): the same bits as the reference, with any thread count, with and
+// without normals and scalars, and with non-finite points in the middle.
+TEST(VoxelGrid, LargeCloudsTakeTheBucketedPathWithTheSameBits) {
+  PointCloud cloud = random_cloud(700000, 6, 2.f);
+  for (std::size_t i = 0; i < cloud.size(); i += 9973)
+    cloud.positions[i].y() = std::numeric_limits<float>::quiet_NaN();
+  for (const float voxel : {0.01f, 0.2f}) {
+    const VoxelGridResult parallel = voxel_down_sample(cloud, voxel);
+    expect_identical(parallel, brute_force_voxel_grid(cloud, voxel));
+    EXPECT_EQ(parallel.report.non_finite, 71u);
+    tbb::global_control single(tbb::global_control::max_allowed_parallelism, 1);
+    expect_identical(voxel_down_sample(cloud, voxel), parallel);
+  }
+  PointCloud plain;  // positions and colours only: no index gather
+  plain.positions = cloud.positions;
+  plain.colors = cloud.colors;
+  expect_identical(voxel_down_sample(plain, 0.05f), brute_force_voxel_grid(plain, 0.05f));
+}
+
 TEST(VoxelGrid, RejectsBadVoxelSizes) {
   const PointCloud cloud = random_cloud(10, 5, 1.f);
   EXPECT_THROW(voxel_down_sample(cloud, 0.f), InputError);

@@ -10,6 +10,7 @@
 #include <locard/forensics/case_model.hpp>
 #include <locard/forensics/evidence_markers.hpp>
 #include <locard/forensics/measurement.hpp>
+#include <locard/forensics/report.hpp>
 #include <locard/forensics/trajectory_analysis.hpp>
 #include <locard/io/ply.hpp>
 
@@ -424,6 +425,11 @@ ApiResponse CaseApi::trajectory(std::string_view body) {
     out["log_seq"] = folder.append_log_step(step);
   }
   return json_response(out, save ? 201 : 200);
+}
+
+void CaseApi::refresh_report() {
+  forensics::CaseFolder folder = impl_->folder();
+  forensics::refresh_case_report(folder);
 }
 
 }  // namespace locard::viewer

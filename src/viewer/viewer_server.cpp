@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include <array>
+#include <condition_variable>
 #include <cstdlib>
 #include <fstream>
 #include <map>
@@ -127,6 +128,47 @@ struct ViewerServer::Impl {
   std::uint16_t port = 0;
   std::mutex api_mutex;  // the API reads caches and appends to the case log: one at a time
 
+  // Debounced report refresh (see the header).
+  std::thread report_thread;
+  std::mutex report_mutex;
+  std::condition_variable report_cv;
+  bool report_pending = false;
+  bool stopping = false;
+  std::chrono::steady_clock::time_point report_due;
+
+  void schedule_report() {
+    {
+      std::lock_guard lock(report_mutex);
+      report_pending = true;
+      report_due = std::chrono::steady_clock::now() + std::chrono::milliseconds(1500);
+    }
+    report_cv.notify_all();
+  }
+
+  void report_loop() {
+    std::unique_lock lock(report_mutex);
+    while (true) {
+      if (!report_pending) {
+        if (stopping) return;
+        report_cv.wait(lock);
+        continue;
+      }
+      if (!stopping && std::chrono::steady_clock::now() < report_due) {
+        report_cv.wait_until(lock, report_due);
+        continue;
+      }
+      report_pending = false;
+      lock.unlock();
+      try {
+        std::lock_guard api_lock(api_mutex);
+        api.refresh_report();
+      } catch (const std::exception& e) {
+        fmt::print(stderr, "view: the case report was not refreshed: {}\n", e.what());
+      }
+      lock.lock();
+    }
+  }
+
   explicit Impl(ViewerServerOptions o) : options(std::move(o)), api(options.case_dir) {}
 
   void serve_app_file(const std::string& name, httplib::Response& res) {
@@ -199,6 +241,7 @@ struct ViewerServer::Impl {
         std::lock_guard lock(api_mutex);
         out = api.handle(req.method, req.path, req.body, max_points);
       }
+      if (out.status == 201) schedule_report();
       res.status = out.status;
       res.set_content(std::move(out.body), out.content_type.c_str());
     };
@@ -234,12 +277,19 @@ void ViewerServer::start() {
   if (port <= 0) throw Error(fmt::format("view: cannot bind a port on {}", kLoopback));
   impl_->port = static_cast<std::uint16_t>(port);
   impl_->thread = std::thread([this] { impl_->server.listen_after_bind(); });
+  impl_->report_thread = std::thread([this] { impl_->report_loop(); });
 }
 
 void ViewerServer::stop() {
   if (!impl_) return;
   impl_->server.stop();
   if (impl_->thread.joinable()) impl_->thread.join();
+  {
+    std::lock_guard lock(impl_->report_mutex);
+    impl_->stopping = true;
+  }
+  impl_->report_cv.notify_all();
+  if (impl_->report_thread.joinable()) impl_->report_thread.join();
 }
 
 std::uint16_t ViewerServer::port() const { return impl_->port; }

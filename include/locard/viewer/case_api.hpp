@@ -65,6 +65,11 @@ class CaseApi {
   ApiResponse add_marker(std::string_view body);
   ApiResponse trajectory(std::string_view body);
 
+  // Rewrites report/report.html (and the PDF) with the options recorded in case.json and logs a
+  // "report" step: what the CLI does last after adding to a case. Throws like
+  // forensics::refresh_case_report.
+  void refresh_report();
+
  private:
   struct Impl;
   std::unique_ptr<Impl> impl_;

@@ -12,6 +12,9 @@
 //              /api/...            CaseApi (see case_api.hpp)
 //  - Responses carry `Cache-Control: no-store` and a Content-Security-Policy that allows only
 //    this origin: the viewer loads no remote resource, so it works offline.
+//  - After the API adds to the case (201), the case report is refreshed as the CLI does, on a
+//    background thread, 1.5 s after the last addition (clicks in a row give one refresh);
+//    stop() runs a refresh still due before it returns.
 
 #include <chrono>
 #include <cstdint>
@@ -50,7 +53,8 @@ class ViewerServer {
   // Binds 127.0.0.1 on a free port and serves on background threads. Throws Error when the
   // socket cannot be bound.
   void start();
-  // Stops listening and joins the threads (also done by the destructor).
+  // Stops listening, runs a report refresh still due, and joins the threads (also done by the
+  // destructor).
   void stop();
 
   std::uint16_t port() const;
