@@ -182,10 +182,10 @@ TEST(VoxelGrid, SameBitsWithOneThread) {
   expect_identical(voxel_down_sample(cloud, 0.05f), parallel);
 }
 
-// Clouds of 2^19 points or more take the bucketed path (a stable scatter into cache-sized
-// buckets of consecutive keys): the same bits as the reference, with any thread count, with and
-// without normals and scalars, and with non-finite points in the middle.
-TEST(VoxelGrid, LargeCloudsTakeTheBucketedPathWithTheSameBits) {
+// A large cloud (more voxels than the cache holds, several key ranges): the same bits as the
+// reference with any thread count, with and without normals and scalars, and with non-finite
+// points in the middle.
+TEST(VoxelGrid, LargeCloudSameBitsAsReferenceWithAnyThreadCount) {
   PointCloud cloud = random_cloud(700000, 6, 2.f);
   for (std::size_t i = 0; i < cloud.size(); i += 9973)
     cloud.positions[i].y() = std::numeric_limits<float>::quiet_NaN();
@@ -196,7 +196,7 @@ TEST(VoxelGrid, LargeCloudsTakeTheBucketedPathWithTheSameBits) {
     tbb::global_control single(tbb::global_control::max_allowed_parallelism, 1);
     expect_identical(voxel_down_sample(cloud, voxel), parallel);
   }
-  PointCloud plain;  // positions and colours only: no index gather
+  PointCloud plain;  // positions and colours only
   plain.positions = cloud.positions;
   plain.colors = cloud.colors;
   expect_identical(voxel_down_sample(plain, 0.05f), brute_force_voxel_grid(plain, 0.05f));
