@@ -6,7 +6,6 @@
 
 #include <nanoflann.hpp>
 #include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 
 #include <fmt/format.h>
@@ -60,81 +59,138 @@ class DescriptorIndex {
 };
 
 // Small sets (a few thousand keypoints a side, the usual case for global registration): exact
-// brute force beats a kd-tree, which in 33 dimensions visits most leaves anyway. One pass over
-// all pairs gives both directions: the best two targets of each source (row minima) and the
-// best source of each target (column minima, for the mutual filter). Targets are stored
-// dimension-major in blocks of kLanes so that the distance of one source to kLanes targets is
-// one vector loop, each pair still summed in dimension order (the kd-tree oracle's order).
+// brute force beats a kd-tree, which in 33 dimensions visits most leaves anyway. Descriptors
+// are stored dimension-major in blocks of kLanes so that the distance of one query to kLanes
+// descriptors is one vector loop, each pair still summed in dimension order (the kd-tree
+// oracle's order, so the distances are the same bits).
+//
+// Partial distance elimination: a squared distance only grows as dimensions are added, so a
+// block is dropped as soon as every lane's partial sum exceeds the distance that still matters
+// (the second-best so far for the ratio test, else the best). Lanes that survive are summed in
+// full, so the result is exactly the full search's. The mutual filter is one more such search
+// per candidate: from its target over all sources, dropped at the candidate's own distance.
 constexpr std::size_t kLanes = 8;
 constexpr std::size_t kBruteForcePairs = std::size_t{1} << 24;
 
 struct BlockedDescriptors {
   std::size_t count = 0;
+  std::size_t blocks = 0;
   std::vector<float> values;  // block b, dimension d, lane l at (b * 33 + d) * kLanes + l
-  explicit BlockedDescriptors(const std::vector<Fpfh>& d) : count(d.size()) {
-    const std::size_t blocks = (count + kLanes - 1) / kLanes;
-    // Padding lanes sit at an overflowing distance (+inf), never a best match.
+  explicit BlockedDescriptors(const std::vector<Fpfh>& d)
+      : count(d.size()), blocks((d.size() + kLanes - 1) / kLanes) {
+    // Padding lanes sit at an overflowing distance (+inf), never a match.
     values.assign(blocks * 33 * kLanes, 1e30f);
     for (std::size_t i = 0; i < count; ++i)
       for (int k = 0; k < 33; ++k) values[((i / kLanes) * 33 + k) * kLanes + i % kLanes] = d[i][k];
   }
+  const float* block(std::size_t b) const { return values.data() + b * 33 * kLanes; }
+  std::size_t lanes(std::size_t b) const { return std::min(kLanes, count - b * kLanes); }
 };
 
-struct BruteForceResult {
-  std::vector<Neighbor> best, second;  // per source (index kNone when absent)
-  std::vector<Neighbor> column;        // per target: its nearest source
-};
+// Squared distances from q to the kLanes descriptors of a block, in dimension order, as one
+// vector of kLanes floats (GCC vector extensions: two SSE registers on the baseline, one AVX2
+// register in the AVX2 clone; lane-wise IEEE arithmetic either way). Returns false as soon as
+// every lane's partial sum exceeds `limit` (then acc is partial).
+using Lanes = float __attribute__((vector_size(kLanes * sizeof(float))));
+using UnalignedLanes = float __attribute__((vector_size(kLanes * sizeof(float)), aligned(4)));
 
-inline bool before(float d, std::uint32_t i, const Neighbor& n) {
-  return d < n.squared_distance || (d == n.squared_distance && i < n.index);
+[[gnu::always_inline]] inline bool all_over(const Lanes& acc, float limit) {
+  for (std::size_t l = 0; l < kLanes; ++l)
+    if (!(acc[l] > limit)) return false;
+  return true;
 }
 
-BruteForceResult brute_force(const std::vector<Fpfh>& source, const std::vector<Fpfh>& target) {
-  const BlockedDescriptors blocked(target);
-  const std::size_t blocks = (target.size() + kLanes - 1) / kLanes;
+[[gnu::always_inline]] inline bool block_distances(const float* q, const float* t, float limit,
+                                                   Lanes& acc) {
+  const auto* tv = reinterpret_cast<const UnalignedLanes*>(t);
+  acc = Lanes{};
+  int k = 0;
+  for (const int stop : {8, 16, 24}) {
+    for (; k < stop; ++k) {
+      const Lanes diff = q[k] - Lanes(tv[k]);
+      acc += diff * diff;
+    }
+    if (all_over(acc, limit)) return false;
+  }
+  for (; k < 33; ++k) {
+    const Lanes diff = q[k] - Lanes(tv[k]);
+    acc += diff * diff;
+  }
+  return true;
+}
+
+// Best and second-best target of every source (index kNone when absent); ties keep the
+// smaller index.
+struct RowResult {
+  std::vector<Neighbor> best, second;
+};
+
+// The kernels below are compiled twice, for AVX2 (one block of kLanes floats is one ymm
+// register) and for the x86-64 baseline, and the loader picks one per machine. Neither uses FMA
+// (ISO C++ mode contracts nothing, and fp-contract is off here), so both give the same bits.
+#if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && !defined(__SANITIZE_ADDRESS__)
+#define LOCARD_MATCH_KERNEL [[gnu::target_clones("avx2", "default"), gnu::optimize("fp-contract=off")]]
+#else
+#define LOCARD_MATCH_KERNEL
+#endif
+
+LOCARD_MATCH_KERNEL void nearest_targets_range(const Fpfh* source, std::size_t begin,
+                                               std::size_t end, const BlockedDescriptors& target,
+                                               bool need_second, Neighbor* best,
+                                               Neighbor* second) {
   const Neighbor none{kNone, std::numeric_limits<float>::infinity()};
-  BruteForceResult r;
-  r.best.assign(source.size(), none);
-  r.second.assign(source.size(), none);
-  tbb::enumerable_thread_specific<std::vector<Neighbor>> columns(
-      [&] { return std::vector<Neighbor>(target.size(), none); });
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, source.size(), 16), [&](const auto& range) {
-    std::vector<Neighbor>& column = columns.local();
-    for (std::size_t s = range.begin(); s != range.end(); ++s) {
-      const float* q = source[s].data();
-      Neighbor b0 = none, b1 = none;
-      for (std::size_t b = 0; b < blocks; ++b) {
-        const float* t = blocked.values.data() + b * 33 * kLanes;
-        float acc[kLanes] = {};
-        for (int k = 0; k < 33; ++k)
-          for (std::size_t l = 0; l < kLanes; ++l) {
-            const float diff = q[k] - t[k * kLanes + l];
-            acc[l] += diff * diff;
-          }
-        const std::size_t lanes = std::min(kLanes, target.size() - b * kLanes);
-        for (std::size_t l = 0; l < lanes; ++l) {
-          const auto j = static_cast<std::uint32_t>(b * kLanes + l);
-          const float d = acc[l];
-          // Targets come in increasing index: a strict test keeps ties on the smaller one.
-          if (d < b0.squared_distance) {
-            b1 = b0;
-            b0 = Neighbor{j, d};
-          } else if (d < b1.squared_distance) {
-            b1 = Neighbor{j, d};
-          }
-          if (before(d, static_cast<std::uint32_t>(s), column[j]))
-            column[j] = Neighbor{static_cast<std::uint32_t>(s), d};
+  Lanes acc;
+  for (std::size_t s = begin; s != end; ++s) {
+    const float* q = source[s].data();
+    Neighbor b0 = none, b1 = none;
+    for (std::size_t b = 0; b < target.blocks; ++b) {
+      const float limit = need_second ? b1.squared_distance : b0.squared_distance;
+      if (!block_distances(q, target.block(b), limit, acc)) continue;
+      const std::size_t lanes = target.lanes(b);
+      for (std::size_t l = 0; l < lanes; ++l) {
+        const auto j = static_cast<std::uint32_t>(b * kLanes + l);
+        const float d = acc[l];
+        // Targets come in increasing index: a strict test keeps ties on the smaller one.
+        if (d < b0.squared_distance) {
+          b1 = b0;
+          b0 = Neighbor{j, d};
+        } else if (d < b1.squared_distance) {
+          b1 = Neighbor{j, d};
         }
       }
-      r.best[s] = b0;
-      r.second[s] = b1;
     }
+    best[s] = b0;
+    second[s] = b1;
+  }
+}
+
+RowResult nearest_targets(const std::vector<Fpfh>& source, const BlockedDescriptors& target,
+                          bool need_second) {
+  const Neighbor none{kNone, std::numeric_limits<float>::infinity()};
+  RowResult r;
+  r.best.assign(source.size(), none);
+  r.second.assign(source.size(), none);
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, source.size(), 16), [&](const auto& range) {
+    nearest_targets_range(source.data(), range.begin(), range.end(), target, need_second,
+                          r.best.data(), r.second.data());
   });
-  r.column.assign(target.size(), none);
-  for (const auto& column : columns)
-    for (std::size_t j = 0; j < column.size(); ++j)
-      if (before(column[j].squared_distance, column[j].index, r.column[j])) r.column[j] = column[j];
   return r;
+}
+
+// Whether source s is the nearest source of target t (ties to the smaller index), d being
+// their squared distance.
+LOCARD_MATCH_KERNEL bool nearest_source_is(const Fpfh& t, std::uint32_t s, float d,
+                                           const BlockedDescriptors& source) {
+  Lanes acc;
+  for (std::size_t b = 0; b < source.blocks; ++b) {
+    if (!block_distances(t.data(), source.block(b), d, acc)) continue;
+    const std::size_t lanes = source.lanes(b);
+    for (std::size_t l = 0; l < lanes; ++l) {
+      const auto other = static_cast<std::uint32_t>(b * kLanes + l);
+      if (other != s && (acc[l] < d || (acc[l] == d && other < s))) return false;
+    }
+  }
+  return true;
 }
 
 void check_finite(const std::vector<Fpfh>& descriptors, const char* which) {
@@ -160,19 +216,31 @@ std::vector<Correspondence> match_descriptors(const std::vector<Fpfh>& source,
   }
 
   if (source.size() * target.size() <= kBruteForcePairs) {
-    const BruteForceResult r = brute_force(source, target);
-    std::vector<Correspondence> matches;
+    const RowResult r = nearest_targets(source, BlockedDescriptors(target), ratio_test);
+    // Lowe 2004, as below; a lone target has no second neighbour and passes.
+    std::vector<std::uint8_t> keep(source.size(), 0);
     for (std::size_t s = 0; s < source.size(); ++s) {
       const Neighbor& f = r.best[s];
-      if (f.index == kNone) continue;
-      // Lowe 2004, as below; a lone target has no second neighbour and passes.
-      if (ratio_test && r.second[s].index != kNone &&
-          !(f.squared_distance < options.ratio * options.ratio * r.second[s].squared_distance))
-        continue;
-      if (options.mutual && r.column[f.index].index != s) continue;
-      matches.push_back(Correspondence{static_cast<std::uint32_t>(s), f.index,
-                                       std::sqrt(f.squared_distance)});
+      keep[s] = f.index != kNone &&
+                !(ratio_test && r.second[s].index != kNone &&
+                  !(f.squared_distance < options.ratio * options.ratio * r.second[s].squared_distance));
     }
+    if (options.mutual) {
+      const BlockedDescriptors blocked_source(source);
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, source.size(), 16), [&](const auto& range) {
+        for (std::size_t s = range.begin(); s != range.end(); ++s) {
+          if (!keep[s]) continue;
+          const Neighbor& f = r.best[s];
+          keep[s] = nearest_source_is(target[f.index], static_cast<std::uint32_t>(s),
+                                      f.squared_distance, blocked_source);
+        }
+      });
+    }
+    std::vector<Correspondence> matches;
+    for (std::size_t s = 0; s < source.size(); ++s)
+      if (keep[s])
+        matches.push_back(Correspondence{static_cast<std::uint32_t>(s), r.best[s].index,
+                                         std::sqrt(r.best[s].squared_distance)});
     return matches;
   }
 
