@@ -94,6 +94,35 @@ const shot = async (page, name) => {
   log('screenshot', file);
 };
 
+// Colour statistics of the WebGL canvas, from a screenshot of it decoded in the page: the
+// share of pixels whose channels differ by more than 40 (coloured, not grey), of red/brown
+// pixels (red the largest channel by 30 or more) and the number of distinct 4-bit colours.
+async function canvasColour(page) {
+  const box = await page.locator('#viewport canvas').boundingBox();
+  await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
+  const png = await page.screenshot({ clip: box, timeout: 120000 });
+  return page.evaluate(async (b64) => {
+    const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
+    const bitmap = await createImageBitmap(new Blob([bytes], { type: 'image/png' }));
+    const c = document.createElement('canvas');
+    c.width = bitmap.width;
+    c.height = bitmap.height;
+    const g = c.getContext('2d');
+    g.drawImage(bitmap, 0, 0);
+    const d = g.getImageData(0, 0, c.width, c.height).data;
+    let n = 0, coloured = 0, reddish = 0;
+    const distinct = new Set();
+    for (let i = 0; i < d.length; i += 4) {
+      const [r, gr, b] = [d[i], d[i + 1], d[i + 2]];
+      n++;
+      if (Math.max(r, gr, b) - Math.min(r, gr, b) > 40) coloured++;
+      if (r >= Math.max(gr, b) + 30) reddish++;
+      distinct.add(((r >> 4) << 8) | ((gr >> 4) << 4) | (b >> 4));
+    }
+    return { coloured: coloured / n, reddish: reddish / n, distinct: distinct.size, pixels: n };
+  }, png.toString('base64'));
+}
+
 // Points the orbit camera at a world point from `distance` metres towards `towards` (close, so
 // that nothing stands between the camera and the point), then clicks the canvas where the
 // point appears (the viewer ray-casts the click onto the mesh).
@@ -161,6 +190,12 @@ async function mainTest() {
       log(`loaded: ${st.meshTriangles} triangles, ${st.points} points, ${st.markers.length} markers`);
       assert.ok(st.meshTriangles > 1000, 'mesh loaded');
       await shot(page, 'viewer-01-loaded.png');
+      // The GLB's vertex colours reach the screen: the canvas, read back from a screenshot, is
+      // coloured (the bed's red, the floor's brown), not the grey of a mesh without COLOR_0.
+      const colour = await canvasColour(page);
+      log(`canvas colour: ${(100 * colour.coloured).toFixed(1)} % of pixels coloured, ${(100 * colour.reddish).toFixed(1)} % red/brown, ${colour.distinct} distinct colours`);
+      assert.ok(colour.coloured > 0.05, `the rendered mesh is grey: ${JSON.stringify(colour)}`);
+      assert.ok(colour.reddish > 0.01, `no red or brown in the rendered bedroom: ${JSON.stringify(colour)}`);
 
       // --- measurement between two known points ------------------------------------------
       const centre = [0, 0, 1.3];
