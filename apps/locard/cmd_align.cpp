@@ -54,6 +54,7 @@ struct AlignCliOptions {
   double loop_max_distance = 1.0;
   double loop_min_fitness = 0.3;
   std::size_t keyframe_interval = 5;
+  std::size_t local_model_frames = 8;
   std::uint64_t seed = 0;
   bool force = false;
 };
@@ -307,6 +308,7 @@ int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
   o.loop_max_distance_m = opt.loop_max_distance;
   o.loop_min_fitness = opt.loop_min_fitness;
   o.keyframe_interval = opt.keyframe_interval;
+  o.local_model_frames = opt.local_model_frames;
   o.seed = opt.seed;
   o.pose_graph.max_correspondence_distance = 1.5 * opt.voxel;
   const std::size_t total =
@@ -414,6 +416,9 @@ void register_align(CLI::App& app, GlobalOptions& global) {
       ->capture_default_str();
   cmd->add_option("--loop-min-fitness", options->loop_min_fitness,
                   "Loop verification: least ICP fitness")
+      ->capture_default_str();
+  cmd->add_option("--local-model-frames", options->local_model_frames,
+                  "Odometry mode: keyframes in the local model each frame is tracked against")
       ->capture_default_str();
   cmd->add_option("--keyframe-interval", options->keyframe_interval,
                   "Odometry mode: registered frames between keyframes")

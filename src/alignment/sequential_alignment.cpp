@@ -409,10 +409,19 @@ AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOpti
   if (o.loop_closure) {
     std::set<std::pair<std::size_t, std::size_t>> seen;
     std::vector<std::pair<double, LoopCandidate>> near;
-    for (std::size_t a = 0; a < keyframes.size(); ++a)
-      for (std::size_t b = a + 1; b < keyframes.size(); ++b) {
+    // Pairs closer in the sequence than the local model's span are already tied together by
+    // tracking; only pairs beyond it can remove drift.
+    const std::size_t separation =
+        o.mode == AlignmentMode::Odometry
+            ? std::max(o.loop_min_separation, o.local_model_frames * o.keyframe_interval)
+            : o.loop_min_separation;
+    for (std::size_t b = 0; b < keyframes.size(); ++b) {
+      // The nearest few earlier keyframes of each keyframe, so that the candidates spread over
+      // the whole sequence instead of crowding where the camera lingered.
+      std::vector<std::pair<double, LoopCandidate>> mine;
+      for (std::size_t a = 0; a < b; ++a) {
         const std::size_t i = keyframes[a], j = keyframes[b];
-        if (piece_of[i] != piece_of[j] || j - i < o.loop_min_separation) continue;
+        if (piece_of[i] != piece_of[j] || j - i < separation) continue;
         const Isometry3d& Ti = *result.frames[i].T_world_camera_icp;
         const Isometry3d& Tj = *result.frames[j].T_world_camera_icp;
         const double d = (Ti.translation() - Tj.translation()).norm();
@@ -423,8 +432,13 @@ AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOpti
         c.target = i;
         c.found_by = "proximity";
         c.T_target_source = Ti.inverse() * Tj;
-        near.emplace_back(d / o.loop_max_distance_m + ang / o.loop_max_angle_deg, c);
+        mine.emplace_back(d / o.loop_max_distance_m + ang / o.loop_max_angle_deg, c);
       }
+      std::stable_sort(mine.begin(), mine.end(),
+                       [](const auto& x, const auto& y) { return x.first < y.first; });
+      if (mine.size() > o.loop_candidates_per_keyframe) mine.resize(o.loop_candidates_per_keyframe);
+      near.insert(near.end(), mine.begin(), mine.end());
+    }
     std::stable_sort(near.begin(), near.end(),
                      [](const auto& x, const auto& y) { return x.first < y.first; });
     if (near.size() > o.max_loop_candidates) near.resize(o.max_loop_candidates);

@@ -23,7 +23,9 @@
 //     loop closure when possible, and reported otherwise.
 //  3. Loop closure between keyframes (every frame in cumulative mode, every keyframe_interval
 //     registered frames in odometry mode): candidates are pairs far apart in the sequence
-//     whose cameras are within loop_max_distance_m and loop_max_angle_deg (pose proximity),
+//     (at least loop_min_separation frames; in odometry mode also beyond the local model's
+//     span) whose cameras are within loop_max_distance_m and loop_max_angle_deg (pose
+//     proximity; the loop_candidates_per_keyframe nearest earlier keyframes of each keyframe),
 //     (verified by ICP from the current relative pose), plus, by feature registration
 //     (FPFH + RANSAC, then ICP), the first and last keyframes of every piece (the
 //     first/last overlap of a turn, found even after large drift). Each candidate is verified
@@ -81,7 +83,8 @@ struct AlignmentOptions {
   double loop_max_distance_m = 1.0;
   double loop_max_angle_deg = 20.0;
   double loop_min_fitness = 0.3;
-  std::size_t max_loop_candidates = 60;  // nearest first
+  std::size_t loop_candidates_per_keyframe = 3;  // the nearest earlier keyframes of each
+  std::size_t max_loop_candidates = 200;         // nearest first, over all keyframes
   PoseGraphOptions pose_graph;
   std::uint64_t seed = 0;
   ProgressCallback progress;  // (frames done, frames total) over stage 2
