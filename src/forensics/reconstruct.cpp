@@ -73,6 +73,7 @@ void write_text(const fs::path& path, const std::string& text) {
 template <typename F>
 void for_each_field(ReconstructParameters& p, F&& f) {
   f("mode", p.mode);
+  f("odometry_icp", p.odometry_icp);
   f("align_voxel_m", p.align_voxel_m);
   f("stride", p.stride);
   f("min_depth_m", p.min_depth_m);
@@ -179,6 +180,10 @@ ReconstructParameters ReconstructParameters::defaults_for_sensor(const std::stri
              name.find("kinect_v1") != std::string::npos) {
     p.max_depth_m = 3.0;  // structured light: quadratic noise, keep near readings
     p.mode = "odometry";  // hand-held video: consecutive frames overlap heavily
+    // Kinect v1's colour camera is offset from the depth camera and not registered to it: a
+    // photometric term would pull towards the wrong pixels (on 7-Scenes' 374 frames, ATE
+    // 78 mm with it, 48 mm without).
+    p.odometry_icp = "point-to-plane";
   }
   return p;
 }
@@ -207,6 +212,10 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
                                          to_string(format)));
   const auto mode = parse_alignment_mode(P.mode);
   if (!mode) throw InputError(fmt::format("mode must be cumulative or odometry, got '{}'", P.mode));
+  const auto odometry_icp = parse_icp_method(P.odometry_icp);
+  if (!odometry_icp || *odometry_icp == IcpMethod::PointToPoint)
+    throw InputError(fmt::format("odometry_icp must be colored or point-to-plane, got '{}'",
+                                 P.odometry_icp));
   if (P.world_frame != "auto" && P.world_frame != "first-camera")
     throw InputError(fmt::format("world_frame must be auto or first-camera, got '{}'", P.world_frame));
   std::vector<MeshFormat> formats;
@@ -290,6 +299,7 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
   t0 = Clock::now();
   AlignmentOptions ao;
   ao.mode = *mode;
+  ao.odometry_method = *odometry_icp;
   ao.voxel_size = P.align_voxel_m;
   ao.stride = P.stride;
   ao.min_depth_m = P.min_depth_m;
@@ -445,7 +455,7 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
   {
     LogStep s;
     s.step = "align";
-    s.parameters_json = json{{"mode", P.mode}, {"voxel_m", P.align_voxel_m}, {"stride", P.stride},
+    s.parameters_json = json{{"mode", P.mode}, {"odometry_icp", P.odometry_icp}, {"voxel_m", P.align_voxel_m}, {"stride", P.stride},
                              {"depth_range_m", {P.min_depth_m, P.max_depth_m}},
                              {"loop_closure", P.loop_closure}, {"seed", P.seed},
                              {"world_frame", world_frame}}.dump();

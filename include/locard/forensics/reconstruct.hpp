@@ -32,6 +32,9 @@ namespace locard::forensics {
 struct ReconstructParameters {
   // Alignment (see AlignmentOptions)
   std::string mode = "cumulative";
+  // Odometry mode's last ICP level: "colored" where colour is registered to depth (Kinect v2,
+  // the simulator, Redwood), "point-to-plane" where it is not (Kinect v1 / 7-Scenes, TUM).
+  std::string odometry_icp = "colored";
   double align_voxel_m = 0.02;
   int stride = 2;
   double min_depth_m = 0.3;
