@@ -83,7 +83,7 @@ resize();
 const state = {
   caseInfo: null, meshTriangles: 0, inferredTriangles: 0, points: 0, markers: [],
   lastMeasurement: null, lastTrajectory: null, fps: 0, frames: 0, loaded: false, error: null,
-  simulation: null, lodTriangles: 0,
+  simulation: null, lodTriangles: 0, lodLevel: -1,
 };
 
 // --- mesh ------------------------------------------------------------------------------------
@@ -100,14 +100,50 @@ function asWorldGroup(gltfScene) {
   return g;
 }
 
-// Level of detail while the camera moves. A mesh above LOD_THRESHOLD triangles gets a proxy
-// of about LOD_TRIANGLES by vertex clustering (Rossignac & Borrel 1993: the vertices in each
-// cell of a uniform grid merge into their mean, triangles that collapse are dropped); the proxy
-// is drawn while the view changes and the full mesh as soon as it rests (MOTION_REST_MS), so
-// every still image, screenshot and pick uses the full mesh.
-const LOD_THRESHOLD = 400000, LOD_TRIANGLES = 120000, MOTION_REST_MS = 250;
-const lod = [];
+// Level of detail while the camera moves. A mesh above LOD_THRESHOLD triangles gets proxies
+// of about LOD_TRIANGLES[k] triangles by vertex clustering (Rossignac & Borrel 1993: the
+// vertices in each cell of a uniform grid merge into their mean, triangles that collapse are
+// dropped). While the view changes, the viewer draws the level of LOD_LEVELS that holds
+// TARGET_FPS on this machine (measured frame by frame: a fast GPU keeps the full mesh, software
+// WebGL steps down to coarser proxies and fewer pixels); as soon as the view rests
+// (MOTION_REST_MS) the full mesh returns at full resolution, so every still image, screenshot
+// and pick uses the full mesh.
+const LOD_THRESHOLD = 400000, LOD_TRIANGLES = [120000, 30000, 8000], MOTION_REST_MS = 250;
+// [proxy index (-1: the full mesh), fraction of the pixel ratio], finest first. (Coarser than
+// the last one buys nothing in software WebGL: about 25 ms of a frame there is fixed cost.)
+const LOD_LEVELS = [[-1, 1], [0, 1 / 2], [1, 1 / 2], [1, 1 / 3], [2, 1 / 4]];
+const TARGET_FPS = 30;
+const lod = [];  // { full, proxies: [mesh per LOD_TRIANGLES entry] }
 let lastMotion = -Infinity;
+// The adaptive controller: the level used while moving, decided on the mean frame time of
+// windows of LOD_WINDOW frames drawn back to back (a single slow frame, a garbage collection,
+// moves nothing): coarser when a window is over the budget by 10 %, finer when it is under 40 %
+// of it (the finer level costing up to twice as much still fits), never finer within 3 s of
+// having had to go coarser (no oscillation).
+const LOD_WINDOW = 10;
+const lodControl = { level: 1, sumMs: 0, frames: 0, lastFrame: 0, holdUntil: 0, skip: 3 };
+function lodFrameTime(now) {
+  // The first frames at a new level upload its geometry: not counted.
+  if (lodControl.skip > 0) { lodControl.skip -= 1; lodControl.lastFrame = now; return; }
+  if (lodControl.lastFrame > 0) {
+    lodControl.sumMs += now - lodControl.lastFrame;
+    lodControl.frames += 1;
+    if (lodControl.frames >= LOD_WINDOW) {
+      const mean = lodControl.sumMs / lodControl.frames, budget = 1000 / TARGET_FPS;
+      if (mean > 1.1 * budget && lodControl.level + 1 < LOD_LEVELS.length) {
+        lodControl.level += 1;
+        lodControl.holdUntil = now + 3000;
+        lodControl.skip = 3;
+      } else if (mean < 0.4 * budget && lodControl.level > 0 && now > lodControl.holdUntil) {
+        lodControl.level -= 1;
+        lodControl.skip = 3;
+      }
+      lodControl.sumMs = 0;
+      lodControl.frames = 0;
+    }
+  }
+  lodControl.lastFrame = now;
+}
 
 function clusterVertices(geometry, targetTriangles) {
   const pos = geometry.attributes.position.array;
@@ -158,22 +194,34 @@ function clusterVertices(geometry, targetTriangles) {
   return out;
 }
 
-// Shows the proxies while the view is changing, the full meshes when it rests; while moving,
-// the canvas also renders at half resolution (a quarter of the pixels to fill).
+// Shows the controller's level while the view is changing, the full meshes at full resolution
+// when it rests.
 const basePixelRatio = Math.min(window.devicePixelRatio, 1.5);
 function applyLod(now) {
-  const moving = now - lastMotion < MOTION_REST_MS;
-  const ratio = moving ? basePixelRatio / 2 : basePixelRatio;
+  const moving = lod.length > 0 && now - lastMotion < MOTION_REST_MS;
+  const [proxyIndex, fraction] = moving ? LOD_LEVELS[lodControl.level] : [-1, 1];
+  const ratio = basePixelRatio * fraction;
   if (renderer.getPixelRatio() !== ratio) {
     renderer.setPixelRatio(ratio);
     renderer.setSize(container.clientWidth || 1, container.clientHeight || 1, false);
   }
-  for (const { full, proxy } of lod) {
-    const show = full.visible || proxy.visible;
-    full.visible = show && !moving;
-    proxy.visible = show && moving;
+  for (const entry of lod) {
+    const show = entry.full.visible || entry.proxies.some((p) => p.visible);
+    entry.full.visible = show && proxyIndex < 0;
+    entry.proxies.forEach((p, k) => { p.visible = show && k === proxyIndex; });
   }
+  state.lodLevel = moving ? lodControl.level : -1;
   return moving;
+}
+
+// Triangles the current level draws (the full mesh at rest).
+function drawnTriangles() {
+  let n = state.inferredTriangles;
+  for (const entry of lod) {
+    const shown = [entry.full, ...entry.proxies].find((m) => m.visible);
+    if (shown) n += shown.geometry.index.count / 3;
+  }
+  return lod.length ? n : state.meshTriangles + state.inferredTriangles;
 }
 
 async function loadMesh(relative) {
@@ -197,13 +245,17 @@ async function loadMesh(relative) {
   if (triangles > LOD_THRESHOLD) {
     for (const o of [...pickables]) {
       if (inferredMeshes.includes(o) || !o.geometry.index) continue;
-      const proxy = new THREE.Mesh(clusterVertices(o.geometry, LOD_TRIANGLES * (o.geometry.index.count / 3) / triangles), o.material);
-      proxy.matrixAutoUpdate = false;
-      proxy.matrix.copy(o.matrix);
-      proxy.visible = false;
-      o.parent.add(proxy);
-      lod.push({ full: o, proxy });
-      state.lodTriangles += proxy.geometry.index.count / 3;
+      const share = (o.geometry.index.count / 3) / triangles;
+      const proxies = LOD_TRIANGLES.map((target) => {
+        const proxy = new THREE.Mesh(clusterVertices(o.geometry, target * share), o.material);
+        proxy.matrixAutoUpdate = false;
+        proxy.matrix.copy(o.matrix);
+        proxy.visible = false;
+        o.parent.add(proxy);
+        return proxy;
+      });
+      lod.push({ full: o, proxies });
+      state.lodTriangles += proxies[0].geometry.index.count / 3;
     }
     group.updateMatrixWorld(true);
   }
@@ -663,8 +715,11 @@ function frame(now) {
   }
   // The frame after motion stops draws the full mesh again.
   {
-    const wasMoving = renderer.getPixelRatio() !== basePixelRatio;
-    if (applyLod(now) !== wasMoving) needsRender = true;
+    const before = state.lodLevel;
+    // Frame times count only between frames drawn back to back while moving.
+    if (applyLod(now) && needsRender) lodFrameTime(now);
+    else lodControl.lastFrame = 0;
+    if (state.lodLevel !== before) needsRender = true;
   }
   if (needsRender) {
     needsRender = false;
@@ -701,12 +756,13 @@ function runBenchmark(seconds = 5, { lod: useLod = false } = {}) {
     setTimeout(() => {
       const elapsed = (performance.now() - benchmark.start) / 1000;
       const fps = benchmark.frames / elapsed;
+      const level = lodControl.level, ratio = renderer.getPixelRatio(), drawn = drawnTriangles();
       benchmark = null;
       lastMotion = -Infinity;
       requestRender();
       resolve({ fps, frames: Math.round(fps * elapsed), seconds: elapsed, lod: useLod,
-        triangles_drawn: useLod && lod.length ? state.lodTriangles + state.inferredTriangles : state.meshTriangles + state.inferredTriangles,
-        triangles: state.meshTriangles + state.inferredTriangles });
+        lod_level: useLod ? level : -1, pixel_ratio: ratio,
+        triangles_drawn: drawn, triangles: state.meshTriangles + state.inferredTriangles });
     }, seconds * 1000);
   });
 }
