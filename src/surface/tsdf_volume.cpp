@@ -187,8 +187,12 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
   tbb::combinable<std::vector<std::uint64_t>> touched;
   tbb::parallel_for(tbb::blocked_range<int>(0, height, 8), [&](const tbb::blocked_range<int>& rr) {
     std::vector<std::uint64_t>& out = touched.local();
-    std::array<std::uint64_t, 4> last_key;
-    last_key.fill(~std::uint64_t{0});
+    // Neighbouring pixels touch the same blocks: a small direct-mapped cache of the keys
+    // pushed last keeps most repeats out of the list (which is sorted and made unique below,
+    // so the cache only saves work, it decides nothing).
+    constexpr std::size_t kSeen = 512;
+    std::array<std::uint64_t, kSeen> seen;
+    seen.fill(~std::uint64_t{0});
     for (int v = rr.begin(); v != rr.end(); ++v) {
       const std::uint16_t* row = depth.row(v);
       float* drow = depth_m.data() + static_cast<std::size_t>(v) * width;
@@ -211,8 +215,9 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
           const int bz = static_cast<int>(std::floor(q.z()));
           if (!in_key_range(bx) || !in_key_range(by) || !in_key_range(bz)) continue;
           const std::uint64_t key = pack(bx, by, bz);
-          if (key == last_key[step & 3]) continue;  // neighbouring pixels touch the same blocks
-          last_key[step & 3] = key;
+          std::uint64_t& slot = seen[(key * 0x9E3779B97F4A7C15ull) >> 55];
+          if (slot == key) continue;
+          slot = key;
           out.push_back(key);
         }
       }
