@@ -20,8 +20,8 @@
 #include <locard/io/point_cloud_io.hpp>
 #include <locard/io/rgbd_sequence.hpp>
 #include <locard/io/stanford_conf.hpp>
-#include <locard/preprocess/voxel_grid.hpp>
 #include <locard/io/trajectory_io.hpp>
+#include <locard/preprocess/voxel_grid.hpp>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -31,7 +31,6 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
-#include <fstream>
 #include <memory>
 #include <string>
 
@@ -118,42 +117,57 @@ void write_pose_graph_json(const std::filesystem::path& path, const AlignmentRes
   file.commit();
 }
 
-// A set of range scans (a Stanford .conf with its scans, or a folder of PLY/PCD scans, each in
-// its sensor's frame): multiway registration from identity (scan_alignment.hpp). Writes
+// The range scans of a Stanford .conf, or of a folder holding one (the first by name) or only
+// PLY/PCD scans (then each in its sensor's frame). Empty when `path` is neither.
+struct ScanSet {
+  std::vector<std::string> names;
+  std::vector<std::filesystem::path> files;
+  std::optional<StanfordConf> conf;
+};
+
+std::optional<ScanSet> find_scan_set(const std::filesystem::path& path, DatasetFormat format) {
+  namespace fs = std::filesystem;
+  fs::path conf_path;
+  ScanSet set;
+  if (format == DatasetFormat::StanfordConf) {
+    conf_path = path;
+  } else if (format == DatasetFormat::Unknown && fs::is_directory(path)) {
+    std::vector<fs::path> confs, clouds;
+    for (const auto& e : fs::directory_iterator(path)) {
+      if (e.path().extension() == ".conf") confs.push_back(e.path());
+      else if (is_point_cloud_file(e.path())) clouds.push_back(e.path());
+    }
+    if (!confs.empty()) {
+      conf_path = *std::min_element(confs.begin(), confs.end());
+    } else if (clouds.size() >= 2) {
+      std::sort(clouds.begin(), clouds.end());
+      for (const fs::path& c : clouds) {
+        set.names.push_back(c.filename().string());
+        set.files.push_back(c);
+      }
+      return set;
+    }
+  }
+  if (conf_path.empty()) return std::nullopt;
+  set.conf = read_stanford_conf(conf_path);
+  for (const RangeScan& scan : set.conf->scans) {
+    set.names.push_back(scan.name);
+    set.files.push_back(scan.file);
+  }
+  return set;
+}
+
+// A set of range scans: multiway registration from identity (scan_alignment.hpp). Writes
 //   aligned.conf       the estimated poses in the .conf convention (T_world_scan = [R(q)^T | t]),
 //                      in the frame of the first scan
 //   scan_alignment.json per-scan poses (and errors against the input .conf when there is one),
 //                      the pairs with their verification
-//   fused.ply          the placed scans in one cloud (voxel grid of --voxel / 4)
-int run_align_scans(const AlignCliOptions& opt, const GlobalOptions& global) {
+//   fused.ply          the placed scans in one cloud (voxel grid of half the alignment's voxel)
+int run_align_scans(const AlignCliOptions& opt, const GlobalOptions& global, const ScanSet& set) {
   namespace fs = std::filesystem;
-  std::vector<std::string> names;
-  std::vector<fs::path> files;
-  std::optional<StanfordConf> conf;
-  fs::path conf_path = opt.sequence;
-  if (fs::is_directory(conf_path)) {
-    std::vector<fs::path> confs, clouds;
-    for (const auto& e : fs::directory_iterator(conf_path)) {
-      if (e.path().extension() == ".conf") confs.push_back(e.path());
-      else if (is_point_cloud_file(e.path())) clouds.push_back(e.path());
-    }
-    std::sort(confs.begin(), confs.end());
-    std::sort(clouds.begin(), clouds.end());
-    if (!confs.empty()) conf_path = confs.front();
-    else {
-      for (const fs::path& c : clouds) {
-        names.push_back(c.filename().string());
-        files.push_back(c);
-      }
-    }
-  }
-  if (files.empty()) {
-    conf = read_stanford_conf(conf_path);
-    for (const RangeScan& s : conf->scans) {
-      names.push_back(s.name);
-      files.push_back(s.file);
-    }
-  }
+  const std::vector<std::string>& names = set.names;
+  const std::vector<fs::path>& files = set.files;
+  const std::optional<StanfordConf>& conf = set.conf;
   if (files.size() < 2)
     throw_input_error(opt.sequence, fmt::format("expected at least two scans, found {}",
                                                 files.size()));
@@ -173,8 +187,7 @@ int run_align_scans(const AlignCliOptions& opt, const GlobalOptions& global) {
   for (std::size_t i = 0; i < scans.size(); ++i) {
     nlohmann::json j = {{"name", names[i]}, {"placed", r.placed[i] != 0}};
     if (!r.placed[i]) {
-      std::fprintf(stderr, "locard: scan %s could not be connected to the others\n",
-                   names[i].c_str());
+      fmt::print(stderr, "locard: scan {} could not be connected to the others\n", names[i]);
       jscans.push_back(j);
       continue;
     }
@@ -233,11 +246,9 @@ int run_align_scans(const AlignCliOptions& opt, const GlobalOptions& global) {
   PointCloud fused;
   for (std::size_t i = 0; i < scans.size(); ++i) {
     if (!r.placed[i]) continue;
-    PointCloud c = voxel_down_sample(scans[i], static_cast<float>(o.voxel_size / 2.0)).cloud;
-    const Eigen::Isometry3f T = r.T_world_scan[i].cast<float>();
-    for (auto& p : c.positions) p = T * p;
-    for (auto& n : c.normals) n = T.linear() * n;
-    fused.append(c);
+    fused.append(transformed(
+        voxel_down_sample(scans[i], static_cast<float>(o.voxel_size / 2.0)).cloud,
+        r.T_world_scan[i]));
   }
   if (!fused.empty()) write_point_cloud(out / "fused.ply", fused);
   std::size_t placed = 0;
@@ -254,38 +265,24 @@ int run_align_scans(const AlignCliOptions& opt, const GlobalOptions& global) {
   return placed >= 2 ? 0 : 3;
 }
 
-bool is_scan_folder(const std::filesystem::path& path) {
-  namespace fs = std::filesystem;
-  if (!fs::is_directory(path)) return false;
-  std::size_t clouds = 0;
-  for (const auto& e : fs::directory_iterator(path)) {
-    if (e.path().extension() == ".conf") return true;
-    clouds += is_point_cloud_file(e.path());
-  }
-  return clouds >= 2;
-}
-
 int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
   namespace fs = std::filesystem;
   if (fs::exists(opt.output) && !fs::is_directory(opt.output))
     throw_input_error(opt.output, "the output must be a folder; a file is in the way");
-  if (fs::exists(opt.sequence) &&
-      (detect_format(opt.sequence) == DatasetFormat::StanfordConf ||
-       (detect_format(opt.sequence) == DatasetFormat::Unknown && is_scan_folder(opt.sequence))))
-    return run_align_scans(opt, global);
+  const bool input_exists = fs::exists(opt.sequence);
+  const DatasetFormat format = input_exists ? detect_format(opt.sequence) : DatasetFormat::Unknown;
+  if (const auto set = find_scan_set(opt.sequence, format))
+    return run_align_scans(opt, global, *set);
   const auto mode = parse_alignment_mode(opt.mode);
   if (!mode)
     throw InputError(fmt::format("--mode must be cumulative or odometry, got '{}'", opt.mode));
-  if (!fs::exists(opt.sequence)) throw_input_error(opt.sequence, "no such file or folder");
-  const DatasetFormat format = detect_format(opt.sequence);
+  if (!input_exists) throw_input_error(opt.sequence, "no such file or folder");
   if (format != DatasetFormat::Tum && format != DatasetFormat::SevenScenes &&
       format != DatasetFormat::Redwood)
     throw_input_error(opt.sequence,
                       fmt::format("expected an RGB-D sequence folder (TUM, 7-Scenes or Redwood), "
                                   "a Stanford .conf or a folder of range scans, found {}",
                                   to_string(format)));
-  if (fs::exists(opt.output) && !fs::is_directory(opt.output))
-    throw_input_error(opt.output, "the output must be a folder; a file is in the way");
   if (fs::exists(opt.output) && !fs::is_empty(opt.output) && !opt.force)
     throw_input_error(opt.output, "output folder is not empty; pass --force to write into it");
   const RgbdSequence sequence = open_rgbd_sequence(opt.sequence);

@@ -281,10 +281,7 @@ int run_register(const RegisterOptions& opt, const GlobalOptions& global) {
     file.commit();
   }
   if (!opt.output.empty()) {
-    PointCloud aligned = source;
-    const Eigen::Isometry3f T = result.T_target_source.cast<float>();
-    for (auto& p : aligned.positions) p = T * p;
-    for (auto& n : aligned.normals) n = T.linear() * n;
+    const PointCloud aligned = transformed(source, result.T_target_source);
     write_point_cloud(opt.output, aligned, {.ascii = opt.ascii});
     if (!global.quiet && !opt.json)
       fmt::print("wrote {} ({} points in the target frame)\n", opt.output, aligned.size());

@@ -19,15 +19,6 @@
 namespace locard {
 namespace {
 
-PointCloud transformed(const PointCloud& cloud, const Isometry3d& T) {
-  PointCloud out = cloud;
-  const Eigen::Matrix3f R = T.linear().cast<float>();
-  const Eigen::Vector3f t = T.translation().cast<float>();
-  for (auto& p : out.positions) p = R * p + t;
-  for (auto& n : out.normals) n = R * n;
-  return out;
-}
-
 // Point-to-plane ICP over the given gates (each level starts from the previous estimate).
 IcpResult icp_gates(const PointCloud& source, const PointCloud& target, const Isometry3d& init,
                     const std::vector<double>& gates) {

@@ -63,15 +63,6 @@ PreparedFrame prepare_frame(const RgbdSequence& sequence, std::size_t index,
   return f;
 }
 
-PointCloud transformed(const PointCloud& cloud, const Isometry3d& T) {
-  PointCloud out = cloud;
-  const Eigen::Matrix3f R = T.linear().cast<float>();
-  const Eigen::Vector3f t = T.translation().cast<float>();
-  for (auto& p : out.positions) p = R * p + t;
-  for (auto& n : out.normals) n = R * n;
-  return out;
-}
-
 // A registration target at two resolutions (the coarse one is made once per model update).
 struct Target {
   PointCloud fine;
@@ -409,6 +400,7 @@ AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOpti
   if (o.loop_closure) {
     std::set<std::pair<std::size_t, std::size_t>> seen;
     std::vector<std::pair<double, LoopCandidate>> near;
+    const auto by_score = [](const auto& x, const auto& y) { return x.first < y.first; };
     // Pairs closer in the sequence than the local model's span are already tied together by
     // tracking; only pairs beyond it can remove drift.
     const std::size_t separation =
@@ -434,13 +426,11 @@ AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOpti
         c.T_target_source = Ti.inverse() * Tj;
         mine.emplace_back(d / o.loop_max_distance_m + ang / o.loop_max_angle_deg, c);
       }
-      std::stable_sort(mine.begin(), mine.end(),
-                       [](const auto& x, const auto& y) { return x.first < y.first; });
+      std::stable_sort(mine.begin(), mine.end(), by_score);
       if (mine.size() > o.loop_candidates_per_keyframe) mine.resize(o.loop_candidates_per_keyframe);
       near.insert(near.end(), mine.begin(), mine.end());
     }
-    std::stable_sort(near.begin(), near.end(),
-                     [](const auto& x, const auto& y) { return x.first < y.first; });
+    std::stable_sort(near.begin(), near.end(), by_score);
     if (near.size() > o.max_loop_candidates) near.resize(o.max_loop_candidates);
     for (auto& [score, c] : near) {
       seen.emplace(c.target, c.source);

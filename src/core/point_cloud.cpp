@@ -62,4 +62,13 @@ const ScalarField* PointCloud::find_scalar(const std::string& name) const {
   return nullptr;
 }
 
+PointCloud transformed(const PointCloud& cloud, const Isometry3d& T) {
+  PointCloud out = cloud;
+  const Eigen::Matrix3f R = T.linear().cast<float>();
+  const Eigen::Vector3f t = T.translation().cast<float>();
+  for (auto& p : out.positions) p = R * p + t;
+  for (auto& n : out.normals) n = R * n;
+  return out;
+}
+
 }  // namespace locard

@@ -193,6 +193,13 @@ LOCARD_MATCH_KERNEL bool nearest_source_is(const Fpfh& t, std::uint32_t s, float
   return true;
 }
 
+// Lowe 2004: keep when d1 < ratio * d2 (squared: d1^2 < ratio^2 d2^2). A lone target has no
+// second neighbour and passes.
+bool passes_ratio(const Neighbor& best, const Neighbor& second, bool ratio_test, float ratio) {
+  return !ratio_test || second.index == kNone ||
+         best.squared_distance < ratio * ratio * second.squared_distance;
+}
+
 void check_finite(const std::vector<Fpfh>& descriptors, const char* which) {
   for (std::size_t i = 0; i < descriptors.size(); ++i) {
     if (!descriptors[i].allFinite()) {
@@ -217,14 +224,10 @@ std::vector<Correspondence> match_descriptors(const std::vector<Fpfh>& source,
 
   if (source.size() * target.size() <= kBruteForcePairs) {
     const RowResult r = nearest_targets(source, BlockedDescriptors(target), ratio_test);
-    // Lowe 2004, as below; a lone target has no second neighbour and passes.
     std::vector<std::uint8_t> keep(source.size(), 0);
-    for (std::size_t s = 0; s < source.size(); ++s) {
-      const Neighbor& f = r.best[s];
-      keep[s] = f.index != kNone &&
-                !(ratio_test && r.second[s].index != kNone &&
-                  !(f.squared_distance < options.ratio * options.ratio * r.second[s].squared_distance));
-    }
+    for (std::size_t s = 0; s < source.size(); ++s)
+      keep[s] = r.best[s].index != kNone &&
+                passes_ratio(r.best[s], r.second[s], ratio_test, options.ratio);
     if (options.mutual) {
       const BlockedDescriptors blocked_source(source);
       tbb::parallel_for(tbb::blocked_range<std::size_t>(0, source.size(), 16), [&](const auto& range) {
@@ -251,13 +254,9 @@ std::vector<Correspondence> match_descriptors(const std::vector<Fpfh>& source,
     Neighbor best[2];
     for (std::size_t s = range.begin(); s != range.end(); ++s) {
       const std::size_t found = target_index.knn(source[s], ratio_test ? 2 : 1, best);
-      // Lowe 2004: keep when d1 < ratio * d2 (squared: d1^2 < ratio^2 d2^2). A lone target
-      // has no second neighbour and passes.
-      if (ratio_test && found == 2 &&
-          !(best[0].squared_distance <
-            options.ratio * options.ratio * best[1].squared_distance)) {
-        continue;
-      }
+      if (found == 0) continue;
+      const Neighbor second = found == 2 ? best[1] : Neighbor{kNone, 0.f};
+      if (!passes_ratio(best[0], second, ratio_test, options.ratio)) continue;
       forward[s] = best[0];
     }
   });

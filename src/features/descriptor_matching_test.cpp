@@ -76,16 +76,21 @@ void expect_same_matches(const std::vector<Correspondence>& actual,
   }
 }
 
+// Makes target[stride * i] a noisy copy (sigma 3) of source[i] for i < count.
+void plant_noisy_copies(const std::vector<Fpfh>& source, std::vector<Fpfh>& target,
+                        std::size_t count, std::size_t stride, std::uint32_t seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<float> noise(0.f, 3.f);
+  for (std::size_t i = 0; i < count; ++i) {
+    target[stride * i] = source[i];
+    for (int k = 0; k < 33; ++k) target[stride * i][k] += noise(rng);
+  }
+}
+
 TEST(DescriptorMatching, EqualsBruteForce) {
   const auto source = random_descriptors(400, 1);
   auto target = random_descriptors(500, 2);
-  // Make some targets near-copies of sources so that mutual pairs exist.
-  std::mt19937 rng(3);
-  std::normal_distribution<float> noise(0.f, 3.f);
-  for (std::size_t i = 0; i < 200; ++i) {
-    target[2 * i] = source[i];
-    for (int k = 0; k < 33; ++k) target[2 * i][k] += noise(rng);
-  }
+  plant_noisy_copies(source, target, 200, 2, 3);  // so that mutual pairs exist
   for (bool mutual : {false, true}) {
     for (float ratio : {1.f, 0.9f, 0.6f}) {
       const MatchOptions options{mutual, ratio};
@@ -108,12 +113,7 @@ TEST(DescriptorMatching, LargeSetsTakeTheTreeAndStillEqualBruteForce) {
   // 4200 x 4100 pairs: above the brute-force threshold (2^24 pairs), so the kd-tree path runs.
   const auto source = random_descriptors(4200, 11);
   auto target = random_descriptors(4100, 12);
-  std::mt19937 rng(13);
-  std::normal_distribution<float> noise(0.f, 3.f);
-  for (std::size_t i = 0; i < 1000; ++i) {
-    target[4 * i] = source[i];
-    for (int k = 0; k < 33; ++k) target[4 * i][k] += noise(rng);
-  }
+  plant_noisy_copies(source, target, 1000, 4, 13);
   const MatchOptions options{true, 0.9f};
   const auto matches = match_descriptors(source, target, options);
   expect_same_matches(matches, brute_force_matches(source, target, options));

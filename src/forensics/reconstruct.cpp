@@ -455,7 +455,8 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
   {
     LogStep s;
     s.step = "align";
-    s.parameters_json = json{{"mode", P.mode}, {"odometry_icp", P.odometry_icp}, {"voxel_m", P.align_voxel_m}, {"stride", P.stride},
+    s.parameters_json = json{{"mode", P.mode}, {"odometry_icp", P.odometry_icp},
+                             {"voxel_m", P.align_voxel_m}, {"stride", P.stride},
                              {"depth_range_m", {P.min_depth_m, P.max_depth_m}},
                              {"loop_closure", P.loop_closure}, {"seed", P.seed},
                              {"world_frame", world_frame}}.dump();

@@ -214,16 +214,13 @@ std::vector<std::uint32_t> key_order(const std::vector<Key>& keys) {
   std::vector<std::uint32_t> order(keys.size());
   if constexpr (sizeof(Key) <= 4) {
     // LSD radix sort on the key half, 11 bits a pass (keys are unique, so order is total).
-    // Keys are taken relative to the smallest: a narrow key range sorts in fewer passes.
     std::vector<std::uint64_t> packed(keys.size()), scratch(keys.size());
-    Key min_key = std::numeric_limits<Key>::max(), max_key = 0;
-    for (const Key key : keys) {
-      min_key = std::min(min_key, key);
-      max_key = std::max(max_key, key);
+    Key max_key = 0;
+    for (std::size_t v = 0; v < keys.size(); ++v) {
+      packed[v] = (std::uint64_t{keys[v]} << 32) | v;
+      max_key = std::max(max_key, keys[v]);
     }
-    for (std::size_t v = 0; v < keys.size(); ++v)
-      packed[v] = (std::uint64_t{static_cast<Key>(keys[v] - min_key)} << 32) | v;
-    const int bits = keys.empty() ? 0 : std::bit_width(static_cast<std::uint32_t>(max_key - min_key));
+    const int bits = std::bit_width(static_cast<std::uint32_t>(max_key));
     for (int shift = 0; shift < bits; shift += 11) {
       std::array<std::size_t, 2049> count{};
       for (std::uint64_t item : packed) ++count[((item >> (32 + shift)) & 2047) + 1];

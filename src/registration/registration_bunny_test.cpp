@@ -58,14 +58,6 @@ Isometry3d ground_truth(const std::string& source, const std::string& target) {
   return scan(target).T_world_scan.inverse() * scan(source).T_world_scan;
 }
 
-PointCloud transformed(const PointCloud& cloud, const Isometry3d& T) {
-  PointCloud out = cloud;
-  const Eigen::Isometry3f Tf = T.cast<float>();
-  for (auto& p : out.positions) p = Tf * p;
-  for (auto& n : out.normals) n = Tf.linear() * n;
-  return out;
-}
-
 // Neighbouring turntable views (45 and 90 degree steps, closing the ring).
 const std::vector<std::pair<std::string, std::string>> kRingPairs = {
     {"bun045", "bun000"}, {"bun090", "bun045"}, {"bun180", "bun090"},

@@ -80,16 +80,8 @@ TEST(PhysicsWorld, DroppedBoxRestsOnTheReconstructedFloor) {
   const KinectV2Model& model = simulator.model();
   TsdfVolume volume({.voxel_size = 0.02, .truncation = 0.06, .max_depth_m = model.max_range_m,
                      .min_depth_m = model.min_range_m});
-  for (std::size_t i = 0; i < simulator.view_count(); ++i) {
-    const SensorFrame sensor = simulator.render(i);
-    RgbdFrame frame;
-    frame.color = sensor.color;
-    frame.depth = sensor.depth;
-    frame.depth_scale = model.depth_scale;
-    frame.intrinsics = model.intrinsics;
-    frame.frame_index = static_cast<std::int64_t>(i);
-    volume.integrate(frame, simulator.trajectory()[i].T_world_camera);
-  }
+  for (std::size_t i = 0; i < simulator.view_count(); ++i)
+    volume.integrate(simulator.render_frame(i), simulator.trajectory()[i].T_world_camera);
   TriangleMesh mesh = volume.extract_mesh();
   remove_small_components(mesh, 200);
   ASSERT_GT(mesh.triangle_count(), 10000u);

@@ -21,4 +21,15 @@ SensorFrame ScanSimulator::render(std::size_t view, bool color_hd) const {
                           color_hd);
 }
 
+RgbdFrame ScanSimulator::render_frame(std::size_t view) const {
+  SensorFrame sensor = render(view);
+  RgbdFrame frame;
+  frame.color = std::move(sensor.color);
+  frame.depth = std::move(sensor.depth);
+  frame.depth_scale = model_.depth_scale;
+  frame.intrinsics = model_.intrinsics;
+  frame.frame_index = static_cast<std::int64_t>(view);
+  return frame;
+}
+
 }  // namespace locard::sim

@@ -23,16 +23,10 @@ TEST(FusionOnSimulatedBedroom, MeetsAccuracyAndCompletenessOfTheVisibleSurface) 
   MeshEvaluationOptions evaluation;
   evaluation.sample_spacing = 0.02;
   for (std::size_t i = 0; i < simulator.view_count(); ++i) {
-    const sim::SensorFrame sensor = simulator.render(i);
-    RgbdFrame frame;
-    frame.color = sensor.color;
-    frame.depth = sensor.depth;
-    frame.depth_scale = model.depth_scale;
-    frame.intrinsics = model.intrinsics;
-    frame.frame_index = static_cast<std::int64_t>(i);
+    const RgbdFrame frame = simulator.render_frame(i);
     const Isometry3d& T_world_camera = simulator.trajectory()[i].T_world_camera;
     volume.integrate(frame, T_world_camera);
-    evaluation.views.push_back({sensor.depth, model.depth_scale, model.intrinsics, T_world_camera});
+    evaluation.views.push_back({frame.depth, model.depth_scale, model.intrinsics, T_world_camera});
   }
   TriangleMesh mesh = volume.extract_mesh();
   remove_small_components(mesh, 200);

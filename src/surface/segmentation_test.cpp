@@ -27,13 +27,8 @@ PointCloud bedroom_cloud() {
   options.min_depth_m = 0.5;
   options.max_depth_m = 4.5;
   for (std::size_t i = 0; i < simulator.view_count(); ++i) {
-    const sim::SensorFrame sensor = simulator.render(i);
-    RgbdFrame frame;
-    frame.color = sensor.color;
-    frame.depth = sensor.depth;
-    frame.depth_scale = simulator.model().depth_scale;
-    frame.intrinsics = simulator.model().intrinsics;
-    merged.append(depth_to_points(frame, options, simulator.trajectory()[i].T_world_camera));
+    merged.append(depth_to_points(simulator.render_frame(i), options,
+                                  simulator.trajectory()[i].T_world_camera));
   }
   PointCloud cloud = voxel_down_sample(merged, 0.02f).cloud;
   NormalOptions normals;

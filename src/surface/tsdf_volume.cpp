@@ -175,8 +175,8 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
 
   // Depth in metres (0 = no reading or out of range) and the ray-length factor per pixel.
   std::vector<float> depth_m(static_cast<std::size_t>(width) * height);
-  // Per pixel: depth times |ray| per metre of depth (sdf = (d - z) * |ray| = d_ray - z |ray|),
-  // written with depth_m; 0 where the pixel has no reading.
+  // Per pixel with a reading: the ray's length per metre of depth, sqrt(1 + xs^2 + ys^2), which
+  // turns a depth difference into the signed distance along the ray.
   std::vector<float> ray_factor(static_cast<std::size_t>(width) * height);
   std::vector<float> x_slope(width), y_slope(height);
   for (int u = 0; u < width; ++u) x_slope[u] = (static_cast<float>(u) - cx) / fx;
@@ -207,10 +207,7 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
         const bool ok = row[u] != 0 && d >= min_d && d <= max_d;
         drow[u] = ok ? d : 0.f;
         if (!ok) continue;
-        {
-          const float xs = x_slope[u], ys = y_slope[v];
-          frow[u] = std::sqrt(1.f + xs * xs + ys * ys);  // the update pass's factor, once
-        }
+        frow[u] = std::sqrt(1.f + x_slope[u] * x_slope[u] + y_slope[v] * y_slope[v]);
         // Samples along the ray from d - truncation to d + truncation, at most half a block
         // apart: the blocks the band crosses (the voxel-hashing allocation of Niessner 2013).
         const Eigen::Vector3f ray = R_wc * Eigen::Vector3f(x_slope[u], y_slope[v], 1.f);
@@ -290,9 +287,9 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
               const Float4 old_mean = {static_cast<float>(cell->rgb[0]),
                                        static_cast<float>(cell->rgb[1]),
                                        static_cast<float>(cell->rgb[2]), 0.f};
-              const Float4 seen = {static_cast<float>(rgb[0]), static_cast<float>(rgb[1]),
-                                   static_cast<float>(rgb[2]), 0.f};
-              Float4 mean = (old_mean * w + seen * 256.f) * inv_w + 0.5f;
+              const Float4 observed = {static_cast<float>(rgb[0]), static_cast<float>(rgb[1]),
+                                       static_cast<float>(rgb[2]), 0.f};
+              Float4 mean = (old_mean * w + observed * 256.f) * inv_w + 0.5f;
               mean = mean < 65535.f ? mean : Float4{65535.f, 65535.f, 65535.f, 65535.f};
               for (int c = 0; c < 3; ++c) cell->rgb[c] = static_cast<std::uint16_t>(mean[c]);
             }

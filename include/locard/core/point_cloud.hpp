@@ -4,6 +4,8 @@
 // Positions are float metres: ample for room-scale scenes (0.25 um resolution at 4 m); the
 // registration kernels re-centre and work in double where residuals accumulate.
 
+#include <locard/core/pose.hpp>
+
 #include <Eigen/Core>
 
 #include <cstddef>
@@ -48,5 +50,9 @@ class PointCloud {
   void check_consistent() const;
   const ScalarField* find_scalar(const std::string& name) const;
 };
+
+// The cloud moved rigidly by T: positions p -> R p + t and normals n -> R n, in float;
+// colours and scalar fields unchanged.
+PointCloud transformed(const PointCloud& cloud, const Isometry3d& T);
 
 }  // namespace locard

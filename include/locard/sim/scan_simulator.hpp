@@ -4,6 +4,7 @@
 // is the same bytes whichever thread renders it, in whatever order.
 
 #include <locard/core/pose.hpp>
+#include <locard/core/rgbd_frame.hpp>
 #include <locard/sim/kinect_v2_model.hpp>
 #include <locard/sim/measurements.hpp>
 #include <locard/sim/scene.hpp>
@@ -27,6 +28,9 @@ class ScanSimulator {
   std::vector<Measurement> measurements() const { return scene_measurements(scene_); }
 
   SensorFrame render(std::size_t view, bool color_hd = false) const;
+  // The view as an RgbdFrame (colour registered to depth, the model's depth scale and
+  // intrinsics, frame_index = view), ready for fusion or back-projection at trajectory()[view].
+  RgbdFrame render_frame(std::size_t view) const;
 
  private:
   Scene scene_;
