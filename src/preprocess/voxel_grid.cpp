@@ -2,6 +2,8 @@
 
 #include <locard/core/error.hpp>
 
+#include "core/huge_page_allocator.hpp"
+
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
@@ -24,10 +26,11 @@ constexpr double kMaxVoxelsPerAxis = double(1 << 21);
 
 // ---- voxel keys ------------------------------------------------------------------------------
 
-// floor(x) for |x| < 2^62 without a libm call (x86-64's baseline has no SSE4.1 round).
-double fast_floor(double x) {
-  const double truncated = static_cast<double>(static_cast<std::int64_t>(x));
-  return truncated > x ? truncated - 1.0 : truncated;
+// floor(x) for |x| < 2^62 as a signed integer without a libm call (x86-64's baseline has no
+// SSE4.1 round): one conversion each way, no branch.
+std::int64_t floor_to_int(double x) {
+  const auto truncated = static_cast<std::int64_t>(x);
+  return truncated - static_cast<std::int64_t>(static_cast<double>(truncated) > x);
 }
 
 // Bounds of the finite positions. floor(p * (1 / v)) is monotonic in p, so the voxel coordinate
@@ -69,16 +72,15 @@ Bounds position_bounds(const PointCloud& cloud) {
 // Non-finite points get `sentinel` = the voxel count, which sorts after every voxel.
 struct KeyGrid {
   double inverse_voxel_size = 0.0;
-  Eigen::Vector3d origin;        // minimum voxel coordinate
-  std::uint64_t ny = 0, nz = 0;  // voxels along y and z
+  std::int64_t ox = 0, oy = 0, oz = 0;  // minimum voxel coordinate
+  std::int64_t ny = 0, nz = 0;          // voxels along y and z
   std::uint64_t sentinel = 0;
   std::uint64_t key(const Eigen::Vector3f& p) const {
     if (!is_finite_point(p)) return sentinel;
-    const auto axis = [&](float x, double o) {
-      return static_cast<std::uint64_t>(fast_floor(x * inverse_voxel_size) - o);
-    };
-    return (axis(p.x(), origin.x()) * ny + axis(p.y(), origin.y())) * nz +
-           axis(p.z(), origin.z());
+    const std::int64_t ix = floor_to_int(p.x() * inverse_voxel_size) - ox;
+    const std::int64_t iy = floor_to_int(p.y() * inverse_voxel_size) - oy;
+    const std::int64_t iz = floor_to_int(p.z() * inverse_voxel_size) - oz;
+    return static_cast<std::uint64_t>((ix * ny + iy) * nz + iz);
   }
 };
 
@@ -97,10 +99,13 @@ struct VoxelSum {
 };
 
 // Sums of one key range, one entry per voxel (in order of first appearance).
+template <typename T>
+using LargeVector = std::vector<T, detail::HugePageAllocator<T>>;
+
 template <typename Key>
 struct RangeSums {
-  std::vector<Key> key;
-  std::vector<VoxelSum> sum;
+  LargeVector<Key> key;
+  LargeVector<VoxelSum> sum;
   std::vector<Eigen::Vector3d> normal;  // when the cloud has normals
   std::vector<double> scalar;           // scalar-field sums, field-minor
   std::vector<std::uint32_t> first;     // first point (normal fallback)
@@ -138,7 +143,7 @@ class VoxelTable {
     std::uint32_t id;
   };
   void grow() {
-    std::vector<Slot> old = std::move(slots_);
+    LargeVector<Slot> old = std::move(slots_);
     log2_ = old.empty() ? 12 : log2_ + 1;
     slots_.assign(std::size_t{1} << log2_, Slot{kEmpty, 0});
     for (const Slot& entry : old) {
@@ -149,7 +154,7 @@ class VoxelTable {
     }
   }
 
-  std::vector<Slot> slots_;
+  LargeVector<Slot> slots_;
   int log2_ = 0;
   std::size_t used_ = 0;
 };
@@ -210,7 +215,7 @@ std::uint8_t mean_channel(std::uint64_t sum, std::uint32_t count) {
 // Voxel ids in increasing key order. 32-bit keys are sorted packed with their id in one 64-bit
 // integer (direct comparisons, no indirection); wider keys as (key, id) pairs.
 template <typename Key>
-std::vector<std::uint32_t> key_order(const std::vector<Key>& keys) {
+std::vector<std::uint32_t> key_order(const LargeVector<Key>& keys) {
   std::vector<std::uint32_t> order(keys.size());
   if constexpr (sizeof(Key) <= 4) {
     // LSD radix sort on the key half, 11 bits a pass (keys are unique, so order is total).
@@ -278,13 +283,17 @@ void voxel_grid_hashed(const PointCloud& cloud, const KeyGrid& grid, int key_bit
   constexpr int kHistogramBits = 12;
   const int shift = std::max(0, key_bits - kHistogramBits);
   const std::size_t bins = (std::size_t{1} << (key_bits - shift)) + 1;  // + sentinel overflow
-  const auto keys = std::make_unique_for_overwrite<Key[]>(n);
+  const detail::LargeArray<Key> keys(n);
   const auto histogram = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, n, 65536), std::vector<std::size_t>(bins, 0),
-      [&](const auto& range, std::vector<std::size_t> counts) {
+      [&, grid](const auto& range, std::vector<std::size_t> counts) {  // grid by value: no
+        Key* const out = keys.get();                                     // reloads per point
+        const Eigen::Vector3f* const positions = cloud.positions.data();
+        const auto sentinel = static_cast<Key>(grid.sentinel);
         for (std::size_t i = range.begin(); i != range.end(); ++i) {
-          keys[i] = static_cast<Key>(grid.key(cloud.positions[i]));
-          if (keys[i] != grid.sentinel) ++counts[keys[i] >> shift];
+          const auto key = static_cast<Key>(grid.key(positions[i]));
+          out[i] = key;
+          if (key != sentinel) ++counts[key >> shift];
         }
         return counts;
       },
@@ -346,7 +355,7 @@ VoxelGridResult voxel_down_sample(const PointCloud& cloud, float voxel_size) {
   result.report.non_finite = bounds.non_finite;
   if (cloud.size() == bounds.non_finite) return result;
 
-  // Checked before fast_floor's range matters: huge coordinates give huge extents.
+  // Checked before floor_to_int's range matters: huge coordinates give huge extents.
   const Eigen::Vector3d min_voxel(std::floor(bounds.min.x() * inverse),
                                   std::floor(bounds.min.y() * inverse),
                                   std::floor(bounds.min.z() * inverse));
@@ -363,10 +372,12 @@ VoxelGridResult voxel_down_sample(const PointCloud& cloud, float voxel_size) {
   }
   KeyGrid grid;
   grid.inverse_voxel_size = inverse;
-  grid.origin = min_voxel;
-  grid.ny = static_cast<std::uint64_t>(extent.y());
-  grid.nz = static_cast<std::uint64_t>(extent.z());
-  grid.sentinel = static_cast<std::uint64_t>(extent.x()) * grid.ny * grid.nz;
+  grid.ox = static_cast<std::int64_t>(min_voxel.x());
+  grid.oy = static_cast<std::int64_t>(min_voxel.y());
+  grid.oz = static_cast<std::int64_t>(min_voxel.z());
+  grid.ny = static_cast<std::int64_t>(extent.y());
+  grid.nz = static_cast<std::int64_t>(extent.z());
+  grid.sentinel = static_cast<std::uint64_t>(extent.x() * extent.y() * extent.z());
 
   // Keys must leave room for the table's empty marker (the all-ones value).
   const int key_bits = std::bit_width(grid.sentinel);
