@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <unordered_map>
@@ -53,11 +54,28 @@ Eigen::Vector3i unpack(std::uint64_t key) {
 }
 bool in_key_range(int c) { return c >= -kKeyOffset + 1 && c < kKeyOffset - 1; }
 
+// floor(x) without a libm call (x86-64's baseline has no SSE4.1 round); NaN, infinities and
+// |x| >= 2^31 give INT_MIN (the conversion's "indefinite" value), which no key accepts.
+int floor_to_int(float x) {
+  if (!(std::abs(x) < 2147483520.f)) return std::numeric_limits<int>::min();
+  const int truncated = static_cast<int>(x);
+  return truncated - (static_cast<float>(truncated) > x);
+}
+
 int floor_div(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
 
 constexpr int local_index(int x, int y, int z) { return x + kSide * (y + kSide * z); }
 
 using Float4 = float __attribute__((vector_size(16)));
+
+// 1 / (w + 1) for the first weights, the same bits as the division (the update divides by
+// the new weight once per voxel and frame; a table load is much cheaper than a division).
+constexpr int kInverseCounts = 1024;
+const std::array<float, kInverseCounts> inverse_count = [] {
+  std::array<float, kInverseCounts> table{};
+  for (int w = 0; w < kInverseCounts; ++w) table[w] = 1.f / (static_cast<float>(w) + 1.f);
+  return table;
+}();
 
 std::uint8_t to_u8(std::uint16_t fixed) {
   return static_cast<std::uint8_t>(std::min(255, (fixed + 128) >> 8));
@@ -173,11 +191,14 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
   const float trunc = static_cast<float>(opt.truncation);
   const float block_size = voxel * kSide;
 
-  // Depth in metres (0 = no reading or out of range) and the ray-length factor per pixel.
-  std::vector<float> depth_m(static_cast<std::size_t>(width) * height);
-  // Per pixel with a reading: the ray's length per metre of depth, sqrt(1 + xs^2 + ys^2), which
-  // turns a depth difference into the signed distance along the ray.
-  std::vector<float> ray_factor(static_cast<std::size_t>(width) * height);
+  // Per pixel: depth in metres (0 = no reading or out of range) and, with a reading, the ray's
+  // length per metre of depth, sqrt(1 + xs^2 + ys^2), which turns a depth difference into the
+  // signed distance along the ray. Side by side: the update reads both, one cache miss.
+  struct PixelDepth {
+    float depth;
+    float ray_factor;
+  };
+  std::vector<PixelDepth> pixels(static_cast<std::size_t>(width) * height);
   std::vector<float> x_slope(width), y_slope(height);
   for (int u = 0; u < width; ++u) x_slope[u] = (static_cast<float>(u) - cx) / fx;
   for (int v = 0; v < height; ++v) y_slope[v] = (static_cast<float>(v) - cy) / fy;
@@ -187,6 +208,10 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
 
   const Eigen::Matrix3f R_wc = T_world_camera.linear().cast<float>();
   const Eigen::Vector3f t_wc = T_world_camera.translation().cast<float>();
+
+  const Eigen::Matrix3f R_wc_blocks = R_wc / block_size;  // camera ray -> block units
+  const Eigen::Vector3f t_wc_blocks = t_wc / block_size;
+  const float two_per_block = 2.f / block_size;
 
   // --- 1. allocation: blocks within the truncation band of every valid pixel ---------------
   tbb::combinable<std::vector<std::uint64_t>> touched;
@@ -198,28 +223,37 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
     constexpr std::size_t kSeen = 512;
     std::array<std::uint64_t, kSeen> seen;
     seen.fill(~std::uint64_t{0});
+    // Locals, not the captured references (which the stores below would force reloading).
+    const Eigen::Matrix3f R_blocks = R_wc_blocks;
+    const Eigen::Vector3f t_blocks = t_wc_blocks;
+    const float* const xs = x_slope.data();
+    const float* const ys = y_slope.data();
+    const float trunc_ = trunc, per_block = two_per_block, min_d_ = min_d, max_d_ = max_d;
+    const float scale_ = scale;
     for (int v = rr.begin(); v != rr.end(); ++v) {
       const std::uint16_t* row = depth.row(v);
-      float* drow = depth_m.data() + static_cast<std::size_t>(v) * width;
-      float* frow = ray_factor.data() + static_cast<std::size_t>(v) * width;
+      PixelDepth* prow = pixels.data() + static_cast<std::size_t>(v) * width;
       for (int u = 0; u < width; ++u) {
-        const float d = static_cast<float>(row[u]) / scale;
-        const bool ok = row[u] != 0 && d >= min_d && d <= max_d;
-        drow[u] = ok ? d : 0.f;
+        const float d = static_cast<float>(row[u]) / scale_;
+        const bool ok = row[u] != 0 && d >= min_d_ && d <= max_d_;
+        prow[u].depth = ok ? d : 0.f;
         if (!ok) continue;
-        frow[u] = std::sqrt(1.f + x_slope[u] * x_slope[u] + y_slope[v] * y_slope[v]);
+        const float ray_length = std::sqrt(1.f + xs[u] * xs[u] + ys[v] * ys[v]);
+        prow[u].ray_factor = ray_length;
         // Samples along the ray from d - truncation to d + truncation, at most half a block
         // apart: the blocks the band crosses (the voxel-hashing allocation of Niessner 2013).
-        const Eigen::Vector3f ray = R_wc * Eigen::Vector3f(x_slope[u], y_slope[v], 1.f);
-        const float band_lo = std::max(d - trunc, 1e-3f), band_hi = d + trunc;
-        const int steps = 1 + static_cast<int>((band_hi - band_lo) * ray.norm() / (0.5f * block_size));
+        // In block units, with one division per pixel: this loop runs ~4 times per pixel.
+        const Eigen::Vector3f ray = R_blocks * Eigen::Vector3f(xs[u], ys[v], 1.f);
+        const float band_lo = std::max(d - trunc_, 1e-3f), band_hi = d + trunc_;
+        const int steps = 1 + static_cast<int>((band_hi - band_lo) * ray_length * per_block);
+        const float spacing = (band_hi - band_lo) / static_cast<float>(steps);
         for (int step = 0; step <= steps; ++step) {
-          const float depth_k = band_lo + (band_hi - band_lo) * static_cast<float>(step) / steps;
-          const Eigen::Vector3f q = (ray * depth_k + t_wc) / block_size;
-          if (!q.allFinite()) break;
-          const int bx = static_cast<int>(std::floor(q.x()));
-          const int by = static_cast<int>(std::floor(q.y()));
-          const int bz = static_cast<int>(std::floor(q.z()));
+          const float depth_k = band_lo + spacing * static_cast<float>(step);
+          const Eigen::Vector3f q = ray * depth_k + t_blocks;
+          // (A non-finite or huge coordinate floors to INT_MIN, outside the key range.)
+          const int bx = floor_to_int(q.x());
+          const int by = floor_to_int(q.y());
+          const int bz = floor_to_int(q.z());
           if (!in_key_range(bx) || !in_key_range(by) || !in_key_range(bz)) continue;
           const std::uint64_t key = pack(bx, by, bz);
           std::uint64_t& slot = seen[(key * 0x9E3779B97F4A7C15ull) >> 55];
@@ -251,6 +285,13 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
   const float inv_trunc = 1.f / trunc;
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, active.size(), 4),
                     [&](const tbb::blocked_range<std::size_t>& range) {
+    // Locals, not the captured references: the cell stores would otherwise make the compiler
+    // reload each of them per voxel.
+    const PixelDepth* const pixel_depth = pixels.data();
+    const std::uint8_t* const color = with_color ? frame.color.row(0) : nullptr;
+    const std::size_t stride = static_cast<std::size_t>(width);
+    const float width_f = static_cast<float>(width), height_f = static_cast<float>(height);
+    const float fx_ = fx, fy_ = fy, cx_ = cx, cy_ = cy, trunc_ = trunc, inv_trunc_ = inv_trunc;
     for (std::size_t a = range.begin(); a != range.end(); ++a) {
       Block& block = *impl_->blocks[active[a]];
       const Eigen::Vector3i b = unpack(keys[a]);
@@ -259,31 +300,54 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
       const Eigen::Vector3f p0 = R * origin + t;
       for (int z = 0; z < kSide; ++z) {
         for (int y = 0; y < kSide; ++y) {
+          // The row's 8 voxels in camera coordinates (stepped one voxel at a time), then
+          // projected as two 4-lane vectors: lane-wise the same IEEE operations as one voxel
+          // at a time, so the same pixels, with a quarter of the divisions.
+          alignas(16) float px[kSide], py[kSide], pz[kSide];
           Eigen::Vector3f p = p0 + step_z * static_cast<float>(z) + step_y * static_cast<float>(y);
+          for (int x = 0; x < kSide; ++x, p += step_x) {
+            px[x] = p.x();
+            py[x] = p.y();
+            pz[x] = p.z();
+          }
+          alignas(16) float us[kSide], vs[kSide], zs[kSide];
+          for (int x = 0; x < kSide; x += 4) {
+            Float4 x4, y4, z4;
+            std::memcpy(&x4, px + x, sizeof(x4));
+            std::memcpy(&y4, py + x, sizeof(y4));
+            std::memcpy(&z4, pz + x, sizeof(z4));
+            const Float4 positive = z4 > 0.f ? z4 : Float4{1.f, 1.f, 1.f, 1.f};
+            const Float4 inv_z = 1.f / positive;
+            const Float4 u4 = fx_ * x4 * inv_z + cx_ + 0.5f;
+            const Float4 v4 = fy_ * y4 * inv_z + cy_ + 0.5f;
+            std::memcpy(us + x, &u4, sizeof(u4));
+            std::memcpy(vs + x, &v4, sizeof(v4));
+            std::memcpy(zs + x, &z4, sizeof(z4));
+          }
           Cell* cell = &block.cells[local_index(0, y, z)];
-          for (int x = 0; x < kSide; ++x, p += step_x, ++cell) {
-            if (p.z() <= 0.f) continue;
-            const float inv_z = 1.f / p.z();
-            const float uf = fx * p.x() * inv_z + cx + 0.5f;
-            const float vf = fy * p.y() * inv_z + cy + 0.5f;
-            if (!(uf >= 0.f && vf >= 0.f && uf < static_cast<float>(width) &&
-                  vf < static_cast<float>(height)))
-              continue;
+          for (int x = 0; x < kSide; ++x, ++cell) {
+            const float pz_x = zs[x];
+            if (pz_x <= 0.f) continue;
+            const float uf = us[x];
+            const float vf = vs[x];
+            if (!(uf >= 0.f && vf >= 0.f && uf < width_f && vf < height_f)) continue;
             const int u = static_cast<int>(uf);
             const int v = static_cast<int>(vf);
-            const std::size_t pixel = static_cast<std::size_t>(v) * width + u;
-            const float d = depth_m[pixel];
+            const std::size_t pixel = static_cast<std::size_t>(v) * stride + u;
+            const PixelDepth observed_depth = pixel_depth[pixel];
+            const float d = observed_depth.depth;
             if (d <= 0.f) continue;
-            const float sdf = (d - p.z()) * ray_factor[pixel];
-            if (sdf <= -trunc) continue;
-            const float tsdf = std::min(1.f, sdf * inv_trunc);
-            const float w = cell->weight;
-            const float inv_w = 1.f / (w + 1.f);
+            const float sdf = (d - pz_x) * observed_depth.ray_factor;
+            if (sdf <= -trunc_) continue;
+            const float tsdf = std::min(1.f, sdf * inv_trunc_);
+            const float w = cell->weight;  // a whole number of observations
+            const float inv_w = w < kInverseCounts ? inverse_count[static_cast<int>(w)]
+                                                   : 1.f / (w + 1.f);
             cell->tsdf = (cell->tsdf * w + tsdf) * inv_w;
             if (with_color) {
               // The three channels as one 4-lane vector (lane-wise the same IEEE operations
               // as a loop over the channels, so the same bits, in a third of the instructions).
-              const std::uint8_t* rgb = frame.color.row(v) + 3 * u;
+              const std::uint8_t* rgb = color + 3 * pixel;
               const Float4 old_mean = {static_cast<float>(cell->rgb[0]),
                                        static_cast<float>(cell->rgb[1]),
                                        static_cast<float>(cell->rgb[2]), 0.f};
