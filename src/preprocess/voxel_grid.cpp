@@ -168,9 +168,15 @@ RangeSums<Key> accumulate_range(const PointCloud& cloud, const Key* keys, Key lo
   const bool gathered = cloud.has_normals() || fields > 0;
   Key last_key = VoxelTable<Key>::kEmpty;
   std::uint32_t id = 0;
+  // Plain pointers, not the vectors behind `cloud`: the sum stores would otherwise make the
+  // compiler reload them per point. `sum_data` moves only when a voxel is appended.
+  const Eigen::Vector3f* const positions = cloud.positions.data();
+  const Rgb8* const colors = cloud.colors.data();
+  VoxelSum* sum_data = sums.sum.data();
+  const std::size_t n = cloud.size();
   constexpr std::size_t kAhead = 16;  // table misses dominate large grids: prefetch the slot
-  for (std::size_t i = 0; i < cloud.size(); ++i) {
-    if (i + kAhead < cloud.size() && table.large()) {
+  for (std::size_t i = 0; i < n; ++i) {
+    if (i + kAhead < n && table.large()) {
       const Key ahead = keys[i + kAhead];
       if (ahead >= low && ahead < high) table.prefetch(ahead);
     }
@@ -183,6 +189,7 @@ RangeSums<Key> accumulate_range(const PointCloud& cloud, const Key* keys, Key lo
       if (id == next) {
         sums.key.push_back(key);
         sums.sum.push_back(VoxelSum{Eigen::Vector3d::Zero(), 0, 0, 0, 0});
+        sum_data = sums.sum.data();
         if (gathered) {
           if (cloud.has_normals()) sums.normal.emplace_back(Eigen::Vector3d::Zero());
           sums.scalar.resize(sums.scalar.size() + fields, 0.0);
@@ -190,12 +197,12 @@ RangeSums<Key> accumulate_range(const PointCloud& cloud, const Key* keys, Key lo
         }
       }
     }
-    VoxelSum& sum = sums.sum[id];
-    sum.position += cloud.positions[i].cast<double>();
+    VoxelSum& sum = sum_data[id];
+    sum.position += positions[i].cast<double>();
     if (with_colors) {
-      sum.r += cloud.colors[i].r;
-      sum.g += cloud.colors[i].g;
-      sum.b += cloud.colors[i].b;
+      sum.r += colors[i].r;
+      sum.g += colors[i].g;
+      sum.b += colors[i].b;
     }
     ++sum.count;
     if (gathered) {
