@@ -263,13 +263,19 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
         }
       }
     }
-    std::sort(out.begin(), out.end());
-    out.erase(std::unique(out.begin(), out.end()), out.end());
+  });
+  // Each thread's list is sorted and made unique once, here, rather than after every task (a
+  // thread runs dozens of row tasks, and re-sorting its growing list each time was most of
+  // the merge's cost).
+  std::vector<std::vector<std::uint64_t>*> lists;
+  touched.combine_each([&lists](std::vector<std::uint64_t>& v) { lists.push_back(&v); });
+  tbb::parallel_for(std::size_t{0}, lists.size(), [&lists](std::size_t l) {
+    std::vector<std::uint64_t>& list = *lists[l];
+    std::sort(list.begin(), list.end());
+    list.erase(std::unique(list.begin(), list.end()), list.end());
   });
   std::vector<std::uint64_t> keys;
-  touched.combine_each([&keys](const std::vector<std::uint64_t>& v) {
-    keys.insert(keys.end(), v.begin(), v.end());
-  });
+  for (const std::vector<std::uint64_t>* list : lists) keys.insert(keys.end(), list->begin(), list->end());
   tbb::parallel_sort(keys.begin(), keys.end());
   keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
   std::vector<std::uint32_t> active(keys.size());
