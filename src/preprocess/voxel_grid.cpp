@@ -2,6 +2,7 @@
 
 #include <locard/core/error.hpp>
 
+#include "core/floor_to_int.hpp"
 #include "core/huge_page_allocator.hpp"
 
 #include <tbb/blocked_range.h>
@@ -25,13 +26,6 @@ namespace {
 constexpr double kMaxVoxelsPerAxis = double(1 << 21);
 
 // ---- voxel keys ------------------------------------------------------------------------------
-
-// floor(x) for |x| < 2^62 as a signed integer without a libm call (x86-64's baseline has no
-// SSE4.1 round): one conversion each way, no branch.
-std::int64_t floor_to_int(double x) {
-  const auto truncated = static_cast<std::int64_t>(x);
-  return truncated - static_cast<std::int64_t>(static_cast<double>(truncated) > x);
-}
 
 // Bounds of the finite positions. floor(p * (1 / v)) is monotonic in p, so the voxel coordinate
 // bounds are those of the position bounds: one cheap float pass, no division per point.
@@ -77,9 +71,10 @@ struct KeyGrid {
   std::uint64_t sentinel = 0;
   std::uint64_t key(const Eigen::Vector3f& p) const {
     if (!is_finite_point(p)) return sentinel;
-    const std::int64_t ix = floor_to_int(p.x() * inverse_voxel_size) - ox;
-    const std::int64_t iy = floor_to_int(p.y() * inverse_voxel_size) - oy;
-    const std::int64_t iz = floor_to_int(p.z() * inverse_voxel_size) - oz;
+    const auto axis = [&](float x) {
+      return detail::floor_to_int<std::int64_t>(x * inverse_voxel_size);
+    };
+    const std::int64_t ix = axis(p.x()) - ox, iy = axis(p.y()) - oy, iz = axis(p.z()) - oz;
     return static_cast<std::uint64_t>((ix * ny + iy) * nz + iz);
   }
 };
@@ -98,10 +93,10 @@ struct VoxelSum {
   std::uint32_t count;
 };
 
-// Sums of one key range, one entry per voxel (in order of first appearance).
 template <typename T>
 using LargeVector = std::vector<T, detail::HugePageAllocator<T>>;
 
+// Sums of one key range, one entry per voxel (in order of first appearance).
 template <typename Key>
 struct RangeSums {
   LargeVector<Key> key;
@@ -293,8 +288,9 @@ void voxel_grid_hashed(const PointCloud& cloud, const KeyGrid& grid, int key_bit
   const detail::LargeArray<Key> keys(n);
   const auto histogram = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, n, 65536), std::vector<std::size_t>(bins, 0),
-      [&, grid](const auto& range, std::vector<std::size_t> counts) {  // grid by value: no
-        Key* const out = keys.get();                                     // reloads per point
+      // The grid by value and plain pointers: the key stores would otherwise force reloads.
+      [&, grid](const auto& range, std::vector<std::size_t> counts) {
+        Key* const out = keys.get();
         const Eigen::Vector3f* const positions = cloud.positions.data();
         const auto sentinel = static_cast<Key>(grid.sentinel);
         for (std::size_t i = range.begin(); i != range.end(); ++i) {
@@ -362,7 +358,7 @@ VoxelGridResult voxel_down_sample(const PointCloud& cloud, float voxel_size) {
   result.report.non_finite = bounds.non_finite;
   if (cloud.size() == bounds.non_finite) return result;
 
-  // Checked before floor_to_int's range matters: huge coordinates give huge extents.
+  // Checked before the key's floor_to_int range matters: huge coordinates give huge extents.
   const Eigen::Vector3d min_voxel(std::floor(bounds.min.x() * inverse),
                                   std::floor(bounds.min.y() * inverse),
                                   std::floor(bounds.min.z() * inverse));

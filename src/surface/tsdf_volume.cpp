@@ -2,6 +2,7 @@
 #include <locard/core/error.hpp>
 #include <locard/surface/tsdf_volume.hpp>
 
+#include "core/floor_to_int.hpp"
 #include "surface/marching_cubes_cases.hpp"
 
 #include <tbb/blocked_range.h>
@@ -54,12 +55,11 @@ Eigen::Vector3i unpack(std::uint64_t key) {
 }
 bool in_key_range(int c) { return c >= -kKeyOffset + 1 && c < kKeyOffset - 1; }
 
-// floor(x) without a libm call (x86-64's baseline has no SSE4.1 round); NaN, infinities and
-// |x| >= 2^31 give INT_MIN (the conversion's "indefinite" value), which no key accepts.
-int floor_to_int(float x) {
+// The block coordinate floor(x) of a position in block units; NaN, infinities and |x| >= 2^31
+// give INT_MIN, which no key accepts.
+int block_coordinate(float x) {
   if (!(std::abs(x) < 2147483520.f)) return std::numeric_limits<int>::min();
-  const int truncated = static_cast<int>(x);
-  return truncated - (static_cast<float>(truncated) > x);
+  return detail::floor_to_int<int>(x);
 }
 
 int floor_div(int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); }
@@ -209,10 +209,6 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
   const Eigen::Matrix3f R_wc = T_world_camera.linear().cast<float>();
   const Eigen::Vector3f t_wc = T_world_camera.translation().cast<float>();
 
-  const Eigen::Matrix3f R_wc_blocks = R_wc / block_size;  // camera ray -> block units
-  const Eigen::Vector3f t_wc_blocks = t_wc / block_size;
-  const float two_per_block = 2.f / block_size;
-
   // --- 1. allocation: blocks within the truncation band of every valid pixel ---------------
   tbb::combinable<std::vector<std::uint64_t>> touched;
   tbb::parallel_for(tbb::blocked_range<int>(0, height, 8), [&](const tbb::blocked_range<int>& rr) {
@@ -224,11 +220,11 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
     std::array<std::uint64_t, kSeen> seen;
     seen.fill(~std::uint64_t{0});
     // Locals, not the captured references (which the stores below would force reloading).
-    const Eigen::Matrix3f R_blocks = R_wc_blocks;
-    const Eigen::Vector3f t_blocks = t_wc_blocks;
+    const Eigen::Matrix3f R_blocks = R_wc / block_size;  // camera ray -> block units
+    const Eigen::Vector3f t_blocks = t_wc / block_size;
     const float* const xs = x_slope.data();
     const float* const ys = y_slope.data();
-    const float trunc_ = trunc, per_block = two_per_block, min_d_ = min_d, max_d_ = max_d;
+    const float trunc_ = trunc, per_block = 2.f / block_size, min_d_ = min_d, max_d_ = max_d;
     const float scale_ = scale;
     for (int v = rr.begin(); v != rr.end(); ++v) {
       const std::uint16_t* row = depth.row(v);
@@ -251,9 +247,9 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
           const float depth_k = band_lo + spacing * static_cast<float>(step);
           const Eigen::Vector3f q = ray * depth_k + t_blocks;
           // (A non-finite or huge coordinate floors to INT_MIN, outside the key range.)
-          const int bx = floor_to_int(q.x());
-          const int by = floor_to_int(q.y());
-          const int bz = floor_to_int(q.z());
+          const int bx = block_coordinate(q.x());
+          const int by = block_coordinate(q.y());
+          const int bz = block_coordinate(q.z());
           if (!in_key_range(bx) || !in_key_range(by) || !in_key_range(bz)) continue;
           const std::uint64_t key = pack(bx, by, bz);
           std::uint64_t& slot = seen[(key * 0x9E3779B97F4A7C15ull) >> 55];
@@ -316,7 +312,7 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
             py[x] = p.y();
             pz[x] = p.z();
           }
-          alignas(16) float us[kSide], vs[kSide], zs[kSide];
+          alignas(16) float us[kSide], vs[kSide];
           for (int x = 0; x < kSide; x += 4) {
             Float4 x4, y4, z4;
             std::memcpy(&x4, px + x, sizeof(x4));
@@ -328,11 +324,10 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
             const Float4 v4 = fy_ * y4 * inv_z + cy_ + 0.5f;
             std::memcpy(us + x, &u4, sizeof(u4));
             std::memcpy(vs + x, &v4, sizeof(v4));
-            std::memcpy(zs + x, &z4, sizeof(z4));
           }
           Cell* cell = &block.cells[local_index(0, y, z)];
           for (int x = 0; x < kSide; ++x, ++cell) {
-            const float pz_x = zs[x];
+            const float pz_x = pz[x];
             if (pz_x <= 0.f) continue;
             const float uf = us[x];
             const float vf = vs[x];
