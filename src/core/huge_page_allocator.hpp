@@ -9,6 +9,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 #include <new>
 
 namespace locard::detail {
@@ -35,6 +36,14 @@ inline void* allocate_large(std::size_t bytes) {
   if (tail > 0) munmap(reinterpret_cast<void*>(aligned + size), tail);
   void* memory = reinterpret_cast<void*>(aligned);
   madvise(memory, size, MADV_HUGEPAGE);  // advice only: without THP these are plain pages
+  return memory;
+}
+
+// As allocate_large, zero-filled. Fresh mappings are zero already: no pass over the memory,
+// and pages are faulted in only where they are first written.
+inline void* allocate_large_zeroed(std::size_t bytes) {
+  void* memory = allocate_large(bytes);
+  if (bytes < kLargeArray) std::memset(memory, 0, bytes);
   return memory;
 }
 

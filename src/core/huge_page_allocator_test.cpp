@@ -1,11 +1,12 @@
 // The large-array allocator: both paths (operator new below 4 MiB, aligned mappings above)
 // hand out usable, 2 MiB-aligned (large) memory, survive regrowth with the contents intact,
-// and give it back.
+// and give it back; the zeroed variant is zero on both paths.
 
 #include "core/huge_page_allocator.hpp"
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cstdint>
 #include <fstream>
 #include <string>
@@ -26,6 +27,19 @@ TEST(HugePageAllocator, LargeArraysAreAlignedAndWritable) {
     memory[0] = 1;
     EXPECT_EQ(memory[0], 1);
     EXPECT_EQ(memory[bytes - 1], bytes == 1 ? 1 : 2);
+    deallocate_large(memory, bytes);
+  }
+}
+
+TEST(HugePageAllocator, ZeroedArraysAreZeroOnBothPaths) {
+  for (const std::size_t bytes : {std::size_t{64}, kLargeArray - 8, kLargeArray, kLargeArray * 3}) {
+    // Dirty the heap first, so that a small block reused from it would show old bytes.
+    auto* dirty = static_cast<std::uint8_t*>(allocate_large(bytes));
+    std::fill(dirty, dirty + bytes, std::uint8_t{0xAB});
+    deallocate_large(dirty, bytes);
+    auto* memory = static_cast<std::uint8_t*>(allocate_large_zeroed(bytes));
+    EXPECT_EQ(std::count(memory, memory + bytes, std::uint8_t{0}),
+              static_cast<std::ptrdiff_t>(bytes)) << bytes;
     deallocate_large(memory, bytes);
   }
 }

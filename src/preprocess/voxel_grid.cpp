@@ -2,6 +2,7 @@
 
 #include <locard/core/error.hpp>
 
+#include "core/distinct_counter.hpp"
 #include "core/floor_to_int.hpp"
 #include "core/huge_page_allocator.hpp"
 
@@ -18,6 +19,7 @@
 #include <cmath>
 #include <limits>
 #include <memory>
+#include <utility>
 
 namespace locard {
 
@@ -86,90 +88,136 @@ struct KeyGrid {
 // summed in input order, whatever the thread count; the voxels of a range are then sorted by
 // key, and the ranges follow each other in key order.
 
-// Sums of one voxel: position, colour and count together (40 bytes, one or two cache lines).
-struct VoxelSum {
-  Eigen::Vector3d position;
-  std::uint32_t r, g, b;
-  std::uint32_t count;
-};
-
-template <typename T>
-using LargeVector = std::vector<T, detail::HugePageAllocator<T>>;
-
-// Sums of one key range, one entry per voxel (in order of first appearance).
+// One voxel: its key and sums together in one hash-table slot, so that a point costs one
+// cache miss (the slot) rather than two (a key -> id table, then the sums). count == 0 marks an
+// empty slot, so zeroed memory is an empty table.
 template <typename Key>
-struct RangeSums {
-  LargeVector<Key> key;
-  LargeVector<VoxelSum> sum;
-  std::vector<Eigen::Vector3d> normal;  // when the cloud has normals
-  std::vector<double> scalar;           // scalar-field sums, field-minor
-  std::vector<std::uint32_t> first;     // first point (normal fallback)
+struct VoxelSlot {
+  Key key;
+  std::uint32_t count;
+  std::uint32_t r, g, b;
+  std::uint32_t id;  // index into the side arrays (normals, scalar fields, first point)
+  Eigen::Vector3d position;
 };
+static_assert(sizeof(VoxelSlot<std::uint32_t>) == 48);
 
-// Open addressing with linear probing: key -> voxel id in RangeSums; grows at half load.
+// Open addressing with linear probing; grows at half load (3/4 was tried: the longer probe
+// chains cost more than the smaller table saved).
 template <typename Key>
 class VoxelTable {
  public:
-  static constexpr Key kEmpty = std::numeric_limits<Key>::max();  // never a real key
+  using Slot = VoxelSlot<Key>;
+  static constexpr int kMinLog2 = 12;
 
-  std::uint32_t find_or_insert(Key key, std::uint32_t next_id) {
-    if (2 * (used_ + 1) > slots_.size()) grow();
-    std::size_t slot = hash(key);
-    while (slots_[slot].key != kEmpty) {
-      if (slots_[slot].key == key) return slots_[slot].id;
-      slot = (slot + 1) & (slots_.size() - 1);
+  VoxelTable() = default;  // empty; allocates on the first insertion
+  explicit VoxelTable(int log2) { allocate(log2); }
+  // The size of a table that holds `voxels` without growing.
+  static int log2_for(double voxels) {
+    return std::max(kMinLog2, static_cast<int>(std::bit_width(static_cast<std::uint64_t>(2.0 * voxels))));
+  }
+  VoxelTable(const VoxelTable&) = delete;
+  VoxelTable& operator=(const VoxelTable&) = delete;
+  VoxelTable(VoxelTable&& other) noexcept { swap(other); }
+  VoxelTable& operator=(VoxelTable&& other) noexcept {
+    swap(other);
+    return *this;
+  }
+  ~VoxelTable() { release(); }
+
+  // The slot of `key`; a new slot (count 0, key set) when the key is not in the table.
+  Slot* find_or_insert(Key key) {
+    if (2 * (used_ + 1) > capacity_) grow();
+    const std::size_t mask = capacity_ - 1;
+    for (std::size_t s = hash(key);; s = (s + 1) & mask) {
+      Slot& slot = slots_[s];
+      if (slot.count == 0) {
+        slot.key = key;
+        ++used_;
+        return &slot;
+      }
+      if (slot.key == key) return &slot;
     }
-    slots_[slot] = Slot{key, next_id};
-    ++used_;
-    return next_id;
   }
 
   // Tables beyond the L2 cache miss on most lookups; their slots are worth prefetching.
-  bool large() const { return slots_.size() >= (std::size_t{1} << 16); }
-  void prefetch(Key key) const { __builtin_prefetch(&slots_[hash(key)]); }
+  bool large() const { return capacity_ >= (std::size_t{1} << 14); }
+  void prefetch(Key key) const {
+    const char* slot = reinterpret_cast<const char*>(&slots_[hash(key)]);
+    __builtin_prefetch(slot);
+    __builtin_prefetch(slot + sizeof(Slot) - 1);
+  }
+
+  std::size_t capacity() const { return capacity_; }
+  std::size_t size() const { return used_; }
+  const Slot* slots() const { return slots_; }
 
  private:
   std::size_t hash(Key key) const {  // Fibonacci hashing
     return static_cast<std::size_t>((static_cast<std::uint64_t>(key) * 0x9E3779B97F4A7C15ull) >>
                                     (64 - log2_));
   }
-  struct Slot {
-    Key key;
-    std::uint32_t id;
-  };
+  void swap(VoxelTable& other) noexcept {
+    std::swap(slots_, other.slots_);
+    std::swap(log2_, other.log2_);
+    std::swap(capacity_, other.capacity_);
+    std::swap(used_, other.used_);
+  }
+  void allocate(int log2) {
+    log2_ = log2;
+    capacity_ = std::size_t{1} << log2;
+    slots_ = static_cast<Slot*>(detail::allocate_large_zeroed(capacity_ * sizeof(Slot)));
+  }
+  void release() {
+    if (slots_) detail::deallocate_large(slots_, capacity_ * sizeof(Slot));
+  }
   void grow() {
-    LargeVector<Slot> old = std::move(slots_);
-    log2_ = old.empty() ? 12 : log2_ + 1;
-    slots_.assign(std::size_t{1} << log2_, Slot{kEmpty, 0});
-    for (const Slot& entry : old) {
-      if (entry.key == kEmpty) continue;
-      std::size_t slot = hash(entry.key);
-      while (slots_[slot].key != kEmpty) slot = (slot + 1) & (slots_.size() - 1);
-      slots_[slot] = entry;
+    VoxelTable old;
+    swap(old);
+    allocate(old.slots_ ? old.log2_ + 1 : kMinLog2);
+    used_ = old.used_;
+    const std::size_t mask = capacity_ - 1;
+    for (std::size_t k = 0; k < old.capacity_; ++k) {
+      if (old.slots_[k].count == 0) continue;
+      std::size_t s = hash(old.slots_[k].key);
+      while (slots_[s].count != 0) s = (s + 1) & mask;
+      slots_[s] = old.slots_[k];
     }
   }
 
-  LargeVector<Slot> slots_;
+  Slot* slots_ = nullptr;
   int log2_ = 0;
+  std::size_t capacity_ = 0;
   std::size_t used_ = 0;
 };
 
+// The voxels of one key range: the table, and the sums that only some clouds have, by id
+// (order of first appearance).
 template <typename Key>
-RangeSums<Key> accumulate_range(const PointCloud& cloud, const Key* keys, Key low, Key high) {
-  RangeSums<Key> sums;
+struct RangeSums {
   VoxelTable<Key> table;
+  std::vector<Eigen::Vector3d> normal;  // when the cloud has normals
+  std::vector<double> scalar;           // scalar-field sums, field-minor
+  std::vector<std::uint32_t> first;     // first point (normal fallback)
+};
+
+// `expected_voxels` sizes the table (an estimate: the table grows if there are more).
+template <typename Key>
+RangeSums<Key> accumulate_range(const PointCloud& cloud, const Key* keys, Key low, Key high,
+                                double expected_voxels) {
+  RangeSums<Key> sums;
+  sums.table = VoxelTable<Key>(VoxelTable<Key>::log2_for(expected_voxels));
+  VoxelTable<Key>& table = sums.table;
   const std::size_t fields = cloud.scalars.size();
   const bool with_colors = cloud.has_colors();
   const bool gathered = cloud.has_normals() || fields > 0;
-  Key last_key = VoxelTable<Key>::kEmpty;
-  std::uint32_t id = 0;
+  Key last_key = 0;
+  VoxelSlot<Key>* slot = nullptr;
   // Plain pointers, not the vectors behind `cloud`: the sum stores would otherwise make the
-  // compiler reload them per point. `sum_data` moves only when a voxel is appended.
+  // compiler reload them per point.
   const Eigen::Vector3f* const positions = cloud.positions.data();
   const Rgb8* const colors = cloud.colors.data();
-  VoxelSum* sum_data = sums.sum.data();
   const std::size_t n = cloud.size();
-  constexpr std::size_t kAhead = 16;  // table misses dominate large grids: prefetch the slot
+  constexpr std::size_t kAhead = 32;  // table misses dominate large grids: prefetch the slot
   for (std::size_t i = 0; i < n; ++i) {
     if (i + kAhead < n && table.large()) {
       const Key ahead = keys[i + kAhead];
@@ -177,30 +225,25 @@ RangeSums<Key> accumulate_range(const PointCloud& cloud, const Key* keys, Key lo
     }
     const Key key = keys[i];
     if (key < low || key >= high) continue;
-    if (key != last_key) {  // consecutive points often share a voxel: skip the lookup
-      const auto next = static_cast<std::uint32_t>(sums.key.size());
-      id = table.find_or_insert(key, next);
+    if (slot == nullptr || key != last_key) {  // consecutive points often share a voxel
+      slot = table.find_or_insert(key);
       last_key = key;
-      if (id == next) {
-        sums.key.push_back(key);
-        sums.sum.push_back(VoxelSum{Eigen::Vector3d::Zero(), 0, 0, 0, 0});
-        sum_data = sums.sum.data();
-        if (gathered) {
-          if (cloud.has_normals()) sums.normal.emplace_back(Eigen::Vector3d::Zero());
-          sums.scalar.resize(sums.scalar.size() + fields, 0.0);
-          sums.first.push_back(static_cast<std::uint32_t>(i));
-        }
+      if (slot->count == 0 && gathered) {
+        slot->id = static_cast<std::uint32_t>(sums.first.size());
+        if (cloud.has_normals()) sums.normal.emplace_back(Eigen::Vector3d::Zero());
+        sums.scalar.resize(sums.scalar.size() + fields, 0.0);
+        sums.first.push_back(static_cast<std::uint32_t>(i));
       }
     }
-    VoxelSum& sum = sum_data[id];
-    sum.position += positions[i].cast<double>();
+    slot->position += positions[i].cast<double>();
     if (with_colors) {
-      sum.r += colors[i].r;
-      sum.g += colors[i].g;
-      sum.b += colors[i].b;
+      slot->r += colors[i].r;
+      slot->g += colors[i].g;
+      slot->b += colors[i].b;
     }
-    ++sum.count;
+    ++slot->count;
     if (gathered) {
+      const std::uint32_t id = slot->id;
       if (cloud.has_normals()) sums.normal[id] += cloud.normals[i].cast<double>();
       for (std::size_t f = 0; f < fields; ++f) {
         sums.scalar[id * fields + f] += cloud.scalars[f].values[i];
@@ -210,35 +253,49 @@ RangeSums<Key> accumulate_range(const PointCloud& cloud, const Key* keys, Key lo
   return sums;
 }
 
+// lround(sum / count) without the libm call: the quotient is at least 1 / (2 count) from a
+// half-integer unless it is one, far more than the rounding of the division or of the + 0.5
+// (count < 2^32, quotient <= 255), so truncating quotient + 0.5 gives the same integer.
 std::uint8_t mean_channel(std::uint64_t sum, std::uint32_t count) {
-  return static_cast<std::uint8_t>(std::lround(static_cast<double>(sum) / count));
+  return static_cast<std::uint8_t>(static_cast<std::uint32_t>(static_cast<double>(sum) / count + 0.5));
 }
 
-// Voxel ids in increasing key order. 32-bit keys are sorted packed with their id in one 64-bit
-// integer (direct comparisons, no indirection); wider keys as (key, id) pairs.
+// The occupied slots in increasing key order. 32-bit keys are sorted packed with their slot in
+// one 64-bit integer (direct comparisons, no indirection); wider keys as (key, slot) pairs.
 template <typename Key>
-std::vector<std::uint32_t> key_order(const LargeVector<Key>& keys) {
-  std::vector<std::uint32_t> order(keys.size());
+std::vector<std::uint32_t> key_order(const VoxelTable<Key>& table) {
+  const VoxelSlot<Key>* const slots = table.slots();
+  std::vector<std::uint32_t> order(table.size());
   if constexpr (sizeof(Key) <= 4) {
-    // LSD radix sort on the key half, 11 bits a pass (keys are unique, so order is total).
-    std::vector<std::uint64_t> packed(keys.size()), scratch(keys.size());
+    // LSD radix sort on the key half (keys are unique, so order is total).
+    std::vector<std::uint64_t> packed(table.size()), scratch(table.size());
     Key max_key = 0;
-    for (std::size_t v = 0; v < keys.size(); ++v) {
-      packed[v] = (std::uint64_t{keys[v]} << 32) | v;
-      max_key = std::max(max_key, keys[v]);
+    std::size_t v = 0;
+    for (std::size_t s = 0; s < table.capacity(); ++s) {
+      if (slots[s].count == 0) continue;
+      packed[v++] = (std::uint64_t{slots[s].key} << 32) | s;
+      max_key = std::max(max_key, slots[s].key);
     }
+    // As few passes as digits of at most 13 bits allow (the counts stay in the L2 cache).
     const int bits = std::bit_width(static_cast<std::uint32_t>(max_key));
-    for (int shift = 0; shift < bits; shift += 11) {
-      std::array<std::size_t, 2049> count{};
-      for (std::uint64_t item : packed) ++count[((item >> (32 + shift)) & 2047) + 1];
-      for (std::size_t d = 0; d < 2048; ++d) count[d + 1] += count[d];
-      for (std::uint64_t item : packed) scratch[count[(item >> (32 + shift)) & 2047]++] = item;
+    const int passes = std::max(1, (bits + 12) / 13);
+    const int digit = (bits + passes - 1) / passes;
+    const std::uint64_t mask = (std::uint64_t{1} << digit) - 1;
+    std::vector<std::size_t> count;
+    for (int shift = 0; shift < bits; shift += digit) {
+      count.assign(mask + 2, 0);
+      for (std::uint64_t item : packed) ++count[((item >> (32 + shift)) & mask) + 1];
+      for (std::size_t d = 0; d <= mask; ++d) count[d + 1] += count[d];
+      for (std::uint64_t item : packed) scratch[count[(item >> (32 + shift)) & mask]++] = item;
       packed.swap(scratch);
     }
     for (std::size_t k = 0; k < packed.size(); ++k) order[k] = static_cast<std::uint32_t>(packed[k]);
   } else {
-    std::vector<std::pair<Key, std::uint32_t>> pairs(keys.size());
-    for (std::size_t v = 0; v < keys.size(); ++v) pairs[v] = {keys[v], static_cast<std::uint32_t>(v)};
+    std::vector<std::pair<Key, std::uint32_t>> pairs;
+    pairs.reserve(table.size());
+    for (std::size_t s = 0; s < table.capacity(); ++s) {
+      if (slots[s].count != 0) pairs.emplace_back(slots[s].key, static_cast<std::uint32_t>(s));
+    }
     std::sort(pairs.begin(), pairs.end());
     for (std::size_t k = 0; k < pairs.size(); ++k) order[k] = pairs[k].second;
   }
@@ -249,30 +306,34 @@ std::vector<std::uint32_t> key_order(const LargeVector<Key>& keys) {
 template <typename Key>
 void write_range(const PointCloud& cloud, const RangeSums<Key>& sums, std::size_t base,
                  VoxelGridResult& result) {
-  const std::vector<std::uint32_t> order = key_order(sums.key);
+  const std::vector<std::uint32_t> order = key_order(sums.table);
+  const VoxelSlot<Key>* const slots = sums.table.slots();
   PointCloud& out = result.cloud;
   const std::size_t fields = cloud.scalars.size();
-  constexpr std::size_t kAhead = 8;  // key order is a random walk through the sums: prefetch
+  constexpr std::size_t kAhead = 8;  // key order is a random walk through the table: prefetch
   for (std::size_t k = 0; k < order.size(); ++k) {
-    if (k + kAhead < order.size()) __builtin_prefetch(&sums.sum[order[k + kAhead]]);
-    const std::uint32_t id = order[k];
+    if (k + kAhead < order.size()) {
+      const char* ahead = reinterpret_cast<const char*>(&slots[order[k + kAhead]]);
+      __builtin_prefetch(ahead);
+      __builtin_prefetch(ahead + sizeof(VoxelSlot<Key>) - 1);
+    }
+    const VoxelSlot<Key>& sum = slots[order[k]];
     const std::size_t v = base + k;
-    const VoxelSum& sum = sums.sum[id];
     const std::uint32_t count = sum.count;
     result.points_per_voxel[v] = count;
-    out.positions[v] = (sum.position / count).cast<float>();
+    out.positions[v] = (sum.position / count).template cast<float>();
     if (cloud.has_colors()) {
       out.colors[v] = Rgb8{mean_channel(sum.r, count), mean_channel(sum.g, count),
                            mean_channel(sum.b, count)};
     }
     if (cloud.has_normals()) {
-      const Eigen::Vector3d& normal = sums.normal[id];
+      const Eigen::Vector3d& normal = sums.normal[sum.id];
       const double norm = normal.norm();
       out.normals[v] = norm > 0.0 ? Eigen::Vector3f((normal / norm).cast<float>())
-                                  : cloud.normals[sums.first[id]];
+                                  : cloud.normals[sums.first[sum.id]];
     }
     for (std::size_t f = 0; f < fields; ++f) {
-      out.scalars[f].values[v] = static_cast<float>(sums.scalar[id * fields + f] / count);
+      out.scalars[f].values[v] = static_cast<float>(sums.scalar[sum.id * fields + f] / count);
     }
   }
 }
@@ -281,50 +342,67 @@ template <typename Key>
 void voxel_grid_hashed(const PointCloud& cloud, const KeyGrid& grid, int key_bits,
                        VoxelGridResult& result) {
   const std::size_t n = cloud.size();
-  // Keys, and a histogram of their top bits to split the key space evenly.
+  // Keys; a histogram of their top bits, to split the key space evenly; and an estimate of the
+  // voxel count, to size the hash tables (growing them while filling cost a fifth of the run).
   constexpr int kHistogramBits = 12;
   const int shift = std::max(0, key_bits - kHistogramBits);
   const std::size_t bins = (std::size_t{1} << (key_bits - shift)) + 1;  // + sentinel overflow
   const detail::LargeArray<Key> keys(n);
-  const auto histogram = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, n, 65536), std::vector<std::size_t>(bins, 0),
+  struct KeyStats {
+    std::vector<std::size_t> histogram;
+    detail::DistinctCounter<6> voxels;  // one key in 64 sampled: ~1 ns a point
+  };
+  const KeyStats stats = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, n, 65536), KeyStats{std::vector<std::size_t>(bins, 0), {}},
       // The grid by value and plain pointers: the key stores would otherwise force reloads.
-      [&, grid](const auto& range, std::vector<std::size_t> counts) {
+      [&, grid](const auto& range, KeyStats partial) {
         Key* const out = keys.get();
         const Eigen::Vector3f* const positions = cloud.positions.data();
         const auto sentinel = static_cast<Key>(grid.sentinel);
+        std::size_t* const counts = partial.histogram.data();
+        const int top_shift = shift;  // a local: the key stores could alias a captured int
         for (std::size_t i = range.begin(); i != range.end(); ++i) {
           const auto key = static_cast<Key>(grid.key(positions[i]));
           out[i] = key;
-          if (key != sentinel) ++counts[key >> shift];
+          if (key == sentinel) continue;
+          ++counts[key >> top_shift];
+          partial.voxels.add(key);
         }
-        return counts;
+        return partial;
       },
-      [](std::vector<std::size_t> a, const std::vector<std::size_t>& b) {
-        for (std::size_t k = 0; k < a.size(); ++k) a[k] += b[k];
+      [](KeyStats a, const KeyStats& b) {
+        for (std::size_t k = 0; k < a.histogram.size(); ++k) a.histogram[k] += b.histogram[k];
+        a.voxels.merge(b.voxels);
         return a;
       });
 
   // Ranges [bounds[r], bounds[r + 1]) of about equal point counts; the sentinel is excluded.
+  // Each range expects the share of the voxels that its share of the points suggests.
   const std::size_t ranges =
       static_cast<std::size_t>(std::max(1, tbb::this_task_arena::max_concurrency()));
   const std::size_t valid = n - result.report.non_finite;
   std::vector<Key> bounds{0};
+  std::vector<std::size_t> points{};
   std::size_t running = 0;
   for (std::size_t b = 0; b + 1 < bins && bounds.size() < ranges; ++b) {
-    running += histogram[b];
+    running += stats.histogram[b];
     if (running * ranges >= bounds.size() * valid && running < valid) {
       bounds.push_back(static_cast<Key>((b + 1) << shift));
+      points.push_back(running);
     }
   }
   bounds.push_back(static_cast<Key>(grid.sentinel));
+  points.push_back(valid);
+  const double voxels_per_point = stats.voxels.estimate() / static_cast<double>(valid);
 
   std::vector<RangeSums<Key>> sums(bounds.size() - 1);
   tbb::parallel_for(std::size_t{0}, sums.size(), [&](std::size_t r) {
-    sums[r] = accumulate_range<Key>(cloud, keys.get(), bounds[r], bounds[r + 1]);
+    const std::size_t in_range = points[r] - (r == 0 ? 0 : points[r - 1]);
+    sums[r] = accumulate_range<Key>(cloud, keys.get(), bounds[r], bounds[r + 1],
+                                    voxels_per_point * static_cast<double>(in_range));
   });
   std::vector<std::size_t> base(sums.size() + 1, 0);
-  for (std::size_t r = 0; r < sums.size(); ++r) base[r + 1] = base[r] + sums[r].key.size();
+  for (std::size_t r = 0; r < sums.size(); ++r) base[r + 1] = base[r] + sums[r].table.size();
 
   PointCloud& out = result.cloud;
   out.positions.resize(base.back());

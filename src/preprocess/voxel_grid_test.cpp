@@ -5,7 +5,9 @@
 
 #include <gtest/gtest.h>
 #include <tbb/global_control.h>
+#include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
@@ -200,6 +202,51 @@ TEST(VoxelGrid, LargeCloudSameBitsAsReferenceWithAnyThreadCount) {
   plain.positions = cloud.positions;
   plain.colors = cloud.colors;
   expect_identical(voxel_down_sample(plain, 0.05f), brute_force_voxel_grid(plain, 0.05f));
+}
+
+// Mean colours at and around every half-integer: the kernel rounds without libm, and must give
+// lround's integer (half away from zero) for any count.
+TEST(VoxelGrid, ColourMeansRoundLikeLround) {
+  PointCloud cloud;
+  float x = 0.5f;  // one voxel per (count, sum), voxels of 1 m along x
+  const auto add_voxel = [&](int count, int sum) {
+    for (int k = 0; k < count; ++k) {
+      const int value = std::min(sum, 255);  // the sum spread over the points
+      sum -= value;
+      cloud.positions.emplace_back(x, 0.5f, 0.5f);
+      cloud.colors.push_back(Rgb8{static_cast<std::uint8_t>(value), 0, 255});
+    }
+    x += 1.f;
+  };
+  for (int count = 1; count <= 8; ++count) {
+    for (int sum = 0; sum <= 255 * count; ++sum) add_voxel(count, sum);
+  }
+  for (const int count : {100, 1001, 20001, 65536}) {
+    for (const int k : {0, 1, 127, 253, 254}) {
+      if (count == 65536 && k != 127) continue;
+      const int half = (2 * k + 1) * count / 2;  // the sums nearest k + 1/2
+      for (int sum = half - 1; sum <= half + 1; ++sum) add_voxel(count, sum);
+    }
+  }
+  expect_identical(voxel_down_sample(cloud, 1.f), brute_force_voxel_grid(cloud, 1.f));
+}
+
+// Tables are sized from an estimate of the voxel count split by the ranges' point counts; here
+// one range holds nearly all the voxels, so its table must grow while it fills.
+TEST(VoxelGrid, TablesGrowWhenARangeHasMoreVoxelsThanExpected) {
+  PointCloud cloud = random_cloud(200000, 8, 1.f);  // ~200k voxels at 5 mm, x in [-1, 1]
+  for (std::size_t i = 0; i < 200000; ++i) {       // as many points in 8 voxels at x ~ 5
+    cloud.positions.emplace_back(5.f + 0.001f * (i % 2), 0.001f * (i % 4), 3.f + 0.001f * (i % 8));
+    cloud.normals.push_back(cloud.normals[i]);
+    cloud.colors.push_back(cloud.colors[i]);
+    cloud.scalars[0].values.push_back(cloud.scalars[0].values[i]);
+  }
+  const VoxelGridResult expected = brute_force_voxel_grid(cloud, 0.005f);
+  for (const int threads : {1, 2, 4}) {
+    tbb::task_arena arena(threads);  // one key range per thread
+    SCOPED_TRACE(threads);
+    arena.execute([&] { expect_identical(voxel_down_sample(cloud, 0.005f), expected); });
+  }
 }
 
 TEST(VoxelGrid, RejectsBadVoxelSizes) {
