@@ -177,6 +177,17 @@ TEST(VoxelGrid, SparseHugeGridUses64BitKeys) {
   EXPECT_EQ(actual.cloud.size(), 5000u);
 }
 
+TEST(VoxelGrid, FarCoordinatesUseTheScalarKeys) {
+  // Voxel coordinates beyond 2^50 (where the batch kernel's floor stops being exact), in a
+  // grid small enough for 32-bit keys: the scalar path, still equal to the reference. (Floats
+  // that far out are 2^28 m apart, so the cloud is one slab at one x.)
+  PointCloud cloud = random_cloud(3000, 9, 1.f);
+  for (Eigen::Vector3f& p : cloud.positions) p.x() = 3e15f;
+  const VoxelGridResult actual = voxel_down_sample(cloud, 0.05f);
+  expect_identical(actual, brute_force_voxel_grid(cloud, 0.05f));
+  EXPECT_GT(actual.cloud.size(), 1000u);
+}
+
 TEST(VoxelGrid, SameBitsWithOneThread) {
   const PointCloud cloud = random_cloud(300000, 4, 3.f);
   const VoxelGridResult parallel = voxel_down_sample(cloud, 0.05f);

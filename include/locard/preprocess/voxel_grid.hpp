@@ -5,14 +5,15 @@
 // normal of its first point) and the mean of every scalar field.
 //
 // Voxels are anchored at the world origin: point p falls in voxel floor(p * (1 / voxel_size))
-// (computed in double), so the same scene gives the same voxels whatever was cropped around it. The output is ordered
-// by voxel index (x, then y, then z, each increasing) and is bit-for-bit identical for any
-// thread count. Non-finite points are dropped and counted.
+// (computed in double), so the same scene gives the same voxels whatever was cropped around
+// it. The output is ordered by voxel index (x, then y, then z, each increasing) and is
+// bit-for-bit identical for any thread count. Non-finite points are dropped and counted.
 //
-// Implementation: parallel voxel keys; the key space is split into ranges of equal point counts,
-// and each range is accumulated by one task scanning the points in input order into an
-// open-addressing hash table (so each voxel is summed in input order by exactly one task);
-// each range's voxels are then sorted by key.
+// Implementation: parallel voxel keys, with an estimate of the voxel count (HyperLogLog on a
+// sample of the keys); the key space is split into ranges of equal point counts, and each range
+// is accumulated by one task scanning the points in input order into an open-addressing hash
+// table sized from the estimate, each slot holding a voxel's key and sums (so each voxel is
+// summed in input order by exactly one task); each range's voxels are then sorted by key.
 
 #include <locard/preprocess/point_selection.hpp>
 
