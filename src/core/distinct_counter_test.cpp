@@ -16,7 +16,8 @@ TEST(DistinctCounter, EmptyCountsZero) {
 }
 
 TEST(DistinctCounter, WithinFivePercentOfExactCounts) {
-  for (const std::uint64_t distinct : {1ull, 10ull, 1000ull, 50'000ull, 1'000'000ull, 10'000'000ull}) {
+  for (const std::uint64_t distinct :
+       {1ull, 10ull, 1000ull, 50'000ull, 1'000'000ull, 10'000'000ull}) {
     DistinctCounter<> counter;
     for (std::uint64_t v = 0; v < distinct; ++v) counter.add(v);
     SCOPED_TRACE(distinct);

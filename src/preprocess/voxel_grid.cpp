@@ -125,7 +125,8 @@ class VoxelTable {
   explicit VoxelTable(int log2) { allocate(log2); }
   // The size of a table that holds `voxels` without growing.
   static int log2_for(double voxels) {
-    return std::max(kMinLog2, static_cast<int>(std::bit_width(static_cast<std::uint64_t>(2.0 * voxels))));
+    const auto slots = static_cast<std::uint64_t>(2.0 * voxels);
+    return std::max(kMinLog2, static_cast<int>(std::bit_width(slots)));
   }
   VoxelTable(const VoxelTable&) = delete;
   VoxelTable& operator=(const VoxelTable&) = delete;
@@ -299,7 +300,8 @@ RangeSums<Key> accumulate_range(const PointCloud& cloud, const Key* keys, Key lo
 // half-integer unless it is one, far more than the rounding of the division or of the + 0.5
 // (count < 2^32, quotient <= 255), so truncating quotient + 0.5 gives the same integer.
 std::uint8_t mean_channel(std::uint64_t sum, std::uint32_t count) {
-  return static_cast<std::uint8_t>(static_cast<std::uint32_t>(static_cast<double>(sum) / count + 0.5));
+  const double mean = static_cast<double>(sum) / count;
+  return static_cast<std::uint8_t>(static_cast<std::uint32_t>(mean + 0.5));
 }
 
 // The occupied slots in increasing key order. 32-bit keys are sorted packed with their slot in
@@ -395,7 +397,8 @@ void voxel_grid_hashed(const PointCloud& cloud, const VoxelKeyGrid& grid, bool b
     detail::DistinctCounter<6> voxels;  // one key in 64 sampled: ~1 ns a point
   };
   const KeyStats stats = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, n, 65536), KeyStats{std::vector<std::size_t>(2 * bins, 0), {}},
+      tbb::blocked_range<std::size_t>(0, n, 65536),
+      KeyStats{std::vector<std::size_t>(2 * bins, 0), {}},
       [&](const auto& range, KeyStats partial) {
         // Locals, not the captures: the key stores (unsigned) could alias the captured ints,
         // and the compiler would reload them per point.
@@ -525,8 +528,8 @@ VoxelGridResult voxel_down_sample(const PointCloud& cloud, float voxel_size) {
   // lost to this path at 1 cm and 5 cm, the page faults of its temporaries costing more than
   // the table misses it saved.)
   if (grid.sentinel < std::numeric_limits<std::uint32_t>::max()) {
-    voxel_grid_hashed<std::uint32_t>(cloud, grid, detail::batch_keys_apply(grid, min_voxel, max_voxel),
-                                     key_bits, result);
+    const bool batch_keys = detail::batch_keys_apply(grid, min_voxel, max_voxel);
+    voxel_grid_hashed<std::uint32_t>(cloud, grid, batch_keys, key_bits, result);
   } else {
     voxel_grid_hashed<std::uint64_t>(cloud, grid, false, key_bits, result);
   }

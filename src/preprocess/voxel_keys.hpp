@@ -67,7 +67,8 @@ inline void voxel_keys_u32(const VoxelKeyGrid& grid, const Eigen::Vector3f* poin
   // Keys up to 2^32 - 1 go through the signed conversion shifted down by 2^31, then back up.
   const __m128d half_range = _mm_set1_pd(0x1p31);
   const __m128i back_up = _mm_set1_epi32(static_cast<int>(0x80000000u));
-  const __m128i sentinel = _mm_set1_epi32(static_cast<int>(static_cast<std::uint32_t>(grid.sentinel)));
+  const __m128i sentinel =
+      _mm_set1_epi32(static_cast<int>(static_cast<std::uint32_t>(grid.sentinel)));
   const auto floor_minus = [&](__m128d v, __m128d origin) {
     const __m128d nearest = _mm_sub_pd(_mm_add_pd(v, magic), magic);
     return _mm_sub_pd(_mm_sub_pd(nearest, _mm_and_pd(_mm_cmpgt_pd(nearest, v), one)), origin);

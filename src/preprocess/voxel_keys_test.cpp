@@ -60,7 +60,9 @@ TEST(VoxelKeys, BatchEqualsScalarOnRandomClouds) {
   std::uniform_real_distribution<float> u(-4.f, 4.f);
   std::vector<Eigen::Vector3f> points;
   for (int i = 0; i < 100001; ++i) points.emplace_back(u(rng), u(rng), u(rng));  // odd count
-  for (const double voxel : {0.006, 0.01, 0.05, 0.37, 10.0}) expect_batch_equals_scalar(points, voxel);
+  for (const double voxel : {0.006, 0.01, 0.05, 0.37, 10.0}) {
+    expect_batch_equals_scalar(points, voxel);
+  }
 }
 
 TEST(VoxelKeys, BoundariesBothSidesOfZeroAndEveryTail) {
@@ -71,7 +73,8 @@ TEST(VoxelKeys, BoundariesBothSidesOfZeroAndEveryTail) {
     points.emplace_back(std::nextafter(c, -1e9f), std::nextafter(c, 1e9f), -0.f);
   }
   for (std::size_t n = 0; n <= 9; ++n) {  // tails of every length, n = 0 included
-    const std::vector<Eigen::Vector3f> prefix(points.begin(), points.begin() + static_cast<long>(n));
+    const std::vector<Eigen::Vector3f> prefix(points.begin(),
+                                              points.begin() + static_cast<long>(n));
     if (n == 0) {
       std::uint32_t untouched = 7;
       voxel_keys_u32(grid_of(points, 0.25), prefix.data(), 0, &untouched);
@@ -88,12 +91,16 @@ TEST(VoxelKeys, FarFromTheOriginAndKeysNear2To32) {
   std::mt19937 rng(5);
   std::uniform_real_distribution<float> u(0.f, 60.f);
   std::vector<Eigen::Vector3f> far;
-  for (int i = 0; i < 20001; ++i) far.emplace_back(1e6f + u(rng), -1e6f + u(rng), 5e5f + 0.03f * u(rng));
+  for (int i = 0; i < 20001; ++i) {
+    far.emplace_back(1e6f + u(rng), -1e6f + u(rng), 5e5f + 0.03f * u(rng));
+  }
   expect_batch_equals_scalar(far, 0.06);
   // A grid whose keys reach almost 2^32 - 1 (the last voxel's key is the sentinel - 1).
   std::vector<Eigen::Vector3f> wide = {Eigen::Vector3f(0.f, 0.f, 0.f),
                                        Eigen::Vector3f(1023.5f, 2047.5f, 2046.5f)};
-  for (int i = 0; i < 999; ++i) wide.emplace_back(1023.f + 0.001f * i, 2047.f, 2046.f + 0.0005f * i);
+  for (int i = 0; i < 999; ++i) {
+    wide.emplace_back(1023.f + 0.001f * i, 2047.f, 2046.f + 0.0005f * i);
+  }
   const VoxelKeyGrid grid = grid_of(wide, 1.0);
   EXPECT_GT(grid.sentinel, 0xFF000000u);
   expect_batch_equals_scalar(wide, 1.0);
