@@ -1,9 +1,10 @@
 #pragma once
-// An allocator for the large scratch arrays of the kernels (today the voxel grid's keys, hash
-// tables and sums). Arrays of 4 MiB and more are mapped directly and marked for transparent
-// huge pages: a random walk over tens of MiB then costs one TLB entry per 2 MiB instead of per
-// 4 KiB, and the first touch faults 512 times less often (on the 2-core VM, 64 MiB touched
-// fresh: 34 ms with 4 KiB pages, 8 ms with huge pages). Smaller arrays use operator new.
+// An allocator for the large scratch arrays of the kernels (today the voxel grid's keys and
+// hash tables, whose slots hold the sums). Arrays of 4 MiB and more are mapped directly and
+// marked for transparent huge pages: a random walk over tens of MiB then costs one TLB entry
+// per 2 MiB instead of per 4 KiB, and the first touch faults 512 times less often (on the
+// 2-core VM, 64 MiB touched fresh: 34 ms with 4 KiB pages, 8 ms with huge pages). Smaller
+// arrays use operator new.
 
 #include <sys/mman.h>
 

@@ -9,12 +9,12 @@
 // rounded up) instead of the scalar path's round trip through a 64-bit integer, the key formed
 // in double (exact: every value is an integer below 2^32). Same keys as `key()`, bit for bit.
 
+#include "core/floor_to_int.hpp"
+
 #include <Eigen/Core>
 
 #include <cstddef>
 #include <cstdint>
-
-#include "core/floor_to_int.hpp"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
