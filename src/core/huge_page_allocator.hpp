@@ -1,5 +1,5 @@
 #pragma once
-// An allocator for the large scratch arrays of the kernels (today the voxel grid's keys and
+// Allocation of the large scratch arrays of the kernels (today the voxel grid's keys and
 // hash tables, whose slots hold the sums). Arrays of 4 MiB and more are mapped directly and
 // marked for transparent huge pages: a random walk over tens of MiB then costs one TLB entry
 // per 2 MiB instead of per 4 KiB, and the first touch faults 512 times less often (on the
@@ -56,22 +56,8 @@ inline void deallocate_large(void* memory, std::size_t bytes) noexcept {
   munmap(memory, huge_page_rounded(bytes));
 }
 
-template <typename T>
-struct HugePageAllocator {
-  using value_type = T;
-  HugePageAllocator() = default;
-  template <typename U>
-  HugePageAllocator(const HugePageAllocator<U>&) noexcept {}
-  T* allocate(std::size_t n) { return static_cast<T*>(allocate_large(n * sizeof(T))); }
-  void deallocate(T* p, std::size_t n) noexcept { deallocate_large(p, n * sizeof(T)); }
-  template <typename U>
-  bool operator==(const HugePageAllocator<U>&) const noexcept {
-    return true;
-  }
-};
-
 // A fixed-size array of trivial values left uninitialised (every element is written before it
-// is read), on the allocator above.
+// is read), from allocate_large.
 template <typename T>
 class LargeArray {
  public:

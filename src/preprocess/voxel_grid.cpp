@@ -7,6 +7,7 @@
 #include "preprocess/voxel_keys.hpp"
 
 #include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/task_arena.h>
@@ -14,11 +15,9 @@
 #include <fmt/format.h>
 
 #include <algorithm>
-#include <array>
 #include <bit>
 #include <cmath>
 #include <limits>
-#include <memory>
 #include <utility>
 
 #if defined(__SSE2__)
@@ -384,8 +383,9 @@ void write_range(const PointCloud& cloud, const RangeSums<Key>& sums, std::size_
 
 template <typename Key>
 void voxel_grid_hashed(const PointCloud& cloud, const VoxelKeyGrid& grid, bool batch_keys,
-                       int key_bits, VoxelGridResult& result) {
+                       VoxelGridResult& result) {
   const std::size_t n = cloud.size();
+  const int key_bits = std::bit_width(grid.sentinel);  // every key is below the sentinel
   // Keys; a histogram of their top bits, to split the key space evenly; and an estimate of the
   // voxel count, to size the hash tables (growing them while filling cost a fifth of the run).
   constexpr int kHistogramBits = 12;
@@ -396,10 +396,12 @@ void voxel_grid_hashed(const PointCloud& cloud, const VoxelKeyGrid& grid, bool b
     std::vector<std::size_t> histogram;
     detail::DistinctCounter<6> voxels;  // one key in 64 sampled: ~1 ns a point
   };
-  const KeyStats stats = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, n, 65536),
-      KeyStats{std::vector<std::size_t>(2 * bins, 0), {}},
-      [&](const auto& range, KeyStats partial) {
+  // Per thread, not per task: a reduction would copy the 64 KiB of histograms at every split.
+  tbb::enumerable_thread_specific<KeyStats> per_thread(
+      [&] { return KeyStats{std::vector<std::size_t>(2 * bins, 0), {}}; });
+  tbb::parallel_for(
+      tbb::blocked_range<std::size_t>(0, n, 65536), [&](const auto& range) {
+        KeyStats& partial = per_thread.local();
         // Locals, not the captures: the key stores (unsigned) could alias the captured ints,
         // and the compiler would reload them per point.
         const VoxelKeyGrid g = grid;
@@ -420,7 +422,7 @@ void voxel_grid_hashed(const PointCloud& cloud, const VoxelKeyGrid& grid, bool b
           if (batch_keys) {  // the keys in a batch, then counted from the cache
             voxel_keys_u32(g, positions + range.begin(), range.size(), out + range.begin());
             for (std::size_t i = range.begin(); i != range.end(); ++i) count(i, out[i]);
-            return partial;
+            return;
           }
         }
         for (std::size_t i = range.begin(); i != range.end(); ++i) {
@@ -428,13 +430,14 @@ void voxel_grid_hashed(const PointCloud& cloud, const VoxelKeyGrid& grid, bool b
           out[i] = key;
           count(i, key);
         }
-        return partial;
-      },
-      [](KeyStats a, const KeyStats& b) {
-        for (std::size_t k = 0; k < a.histogram.size(); ++k) a.histogram[k] += b.histogram[k];
-        a.voxels.merge(b.voxels);
-        return a;
       });
+  KeyStats stats{std::vector<std::size_t>(2 * bins, 0), {}};
+  per_thread.combine_each([&stats](const KeyStats& partial) {
+    for (std::size_t k = 0; k < stats.histogram.size(); ++k) {
+      stats.histogram[k] += partial.histogram[k];
+    }
+    stats.voxels.merge(partial.voxels);
+  });
 
   // Ranges [bounds[r], bounds[r + 1]) of about equal point counts; the sentinel is excluded.
   // Each range expects the share of the voxels that its share of the points suggests.
@@ -513,25 +516,17 @@ VoxelGridResult voxel_down_sample(const PointCloud& cloud, float voxel_size) {
         "{:.0f} per axis are supported (use a larger voxel or crop the cloud)",
         voxel_size, extent.x(), extent.y(), extent.z(), kMaxVoxelsPerAxis));
   }
-  VoxelKeyGrid grid;
-  grid.inverse_voxel_size = inverse;
-  grid.ox = static_cast<std::int64_t>(min_voxel.x());
-  grid.oy = static_cast<std::int64_t>(min_voxel.y());
-  grid.oz = static_cast<std::int64_t>(min_voxel.z());
-  grid.ny = static_cast<std::int64_t>(extent.y());
-  grid.nz = static_cast<std::int64_t>(extent.z());
-  grid.sentinel = static_cast<std::uint64_t>(extent.x() * extent.y() * extent.z());
+  const VoxelKeyGrid grid = VoxelKeyGrid::over(inverse, min_voxel, extent);
 
-  // Keys must leave room for the table's empty marker (the all-ones value).
-  const int key_bits = std::bit_width(grid.sentinel);
+  // The sentinel (the key of non-finite points) must fit the key type too.
   // (A stable scatter into cache-sized buckets before accumulating was tried: on 8 M points it
   // lost to this path at 1 cm and 5 cm, the page faults of its temporaries costing more than
   // the table misses it saved.)
   if (grid.sentinel < std::numeric_limits<std::uint32_t>::max()) {
     const bool batch_keys = detail::batch_keys_apply(grid, min_voxel, max_voxel);
-    voxel_grid_hashed<std::uint32_t>(cloud, grid, batch_keys, key_bits, result);
+    voxel_grid_hashed<std::uint32_t>(cloud, grid, batch_keys, result);
   } else {
-    voxel_grid_hashed<std::uint64_t>(cloud, grid, false, key_bits, result);
+    voxel_grid_hashed<std::uint64_t>(cloud, grid, false, result);
   }
   result.report.output_points = result.cloud.size();
   return result;

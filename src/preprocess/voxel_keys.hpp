@@ -28,6 +28,20 @@ struct VoxelKeyGrid {
   std::int64_t ny = 0, nz = 0;          // voxels along y and z
   std::uint64_t sentinel = 0;
 
+  // The grid of `extent` voxels per axis from the voxel `min_voxel` (both whole numbers).
+  static VoxelKeyGrid over(double inverse_voxel_size, const Eigen::Vector3d& min_voxel,
+                           const Eigen::Vector3d& extent) {
+    VoxelKeyGrid grid;
+    grid.inverse_voxel_size = inverse_voxel_size;
+    grid.ox = static_cast<std::int64_t>(min_voxel.x());
+    grid.oy = static_cast<std::int64_t>(min_voxel.y());
+    grid.oz = static_cast<std::int64_t>(min_voxel.z());
+    grid.ny = static_cast<std::int64_t>(extent.y());
+    grid.nz = static_cast<std::int64_t>(extent.z());
+    grid.sentinel = static_cast<std::uint64_t>(extent.x() * extent.y() * extent.z());
+    return grid;
+  }
+
   std::uint64_t key(const Eigen::Vector3f& p) const {
     const double x = p.x() * inverse_voxel_size, y = p.y() * inverse_voxel_size,
                  z = p.z() * inverse_voxel_size;

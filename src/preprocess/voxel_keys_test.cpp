@@ -28,15 +28,7 @@ VoxelKeyGrid grid_of(const std::vector<Eigen::Vector3f>& points, double voxel,
     low = low.cwiseMin(v);
     high = high.cwiseMax(v);
   }
-  const Eigen::Vector3d extent = high - low + Eigen::Vector3d::Ones();
-  VoxelKeyGrid grid;
-  grid.inverse_voxel_size = inverse;
-  grid.ox = static_cast<std::int64_t>(low.x());
-  grid.oy = static_cast<std::int64_t>(low.y());
-  grid.oz = static_cast<std::int64_t>(low.z());
-  grid.ny = static_cast<std::int64_t>(extent.y());
-  grid.nz = static_cast<std::int64_t>(extent.z());
-  grid.sentinel = static_cast<std::uint64_t>(extent.x() * extent.y() * extent.z());
+  const VoxelKeyGrid grid = VoxelKeyGrid::over(inverse, low, high - low + Eigen::Vector3d::Ones());
   if (min_out) *min_out = low;
   if (max_out) *max_out = high;
   return grid;

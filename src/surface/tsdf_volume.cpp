@@ -271,7 +271,9 @@ void TsdfVolume::integrate(const RgbdFrame& frame, const Isometry3d& T_world_cam
     list.erase(std::unique(list.begin(), list.end()), list.end());
   });
   std::vector<std::uint64_t> keys;
-  for (const std::vector<std::uint64_t>* list : lists) keys.insert(keys.end(), list->begin(), list->end());
+  for (const std::vector<std::uint64_t>* list : lists) {
+    keys.insert(keys.end(), list->begin(), list->end());
+  }
   tbb::parallel_sort(keys.begin(), keys.end());
   keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
   std::vector<std::uint32_t> active(keys.size());
