@@ -226,6 +226,30 @@ std::vector<std::int64_t> AlignmentResult::unregistered_frame_indices() const {
   return out;
 }
 
+std::vector<std::int64_t> AlignmentResult::flagged_frame_indices() const {
+  std::vector<std::int64_t> out;
+  for (const FrameAlignment& f : frames)
+    if (f.status == FrameStatus::Registered && f.check.checked && !f.check.verified)
+      out.push_back(f.frame_index);
+  return out;
+}
+
+std::size_t AlignmentResult::usable_frames() const {
+  return static_cast<std::size_t>(std::count_if(frames.begin(), frames.end(), [](const auto& f) {
+    return f.status != FrameStatus::Unusable;
+  }));
+}
+
+std::size_t AlignmentResult::trusted_frames() const {
+  return static_cast<std::size_t>(
+      std::count_if(frames.begin(), frames.end(), [](const auto& f) { return f.trusted(); }));
+}
+
+double AlignmentResult::trusted_share() const {
+  const std::size_t usable = usable_frames();
+  return usable ? static_cast<double>(trusted_frames()) / static_cast<double>(usable) : 0.0;
+}
+
 AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOptions& options) {
   check_options(options);
   const AlignmentOptions& o = options;
@@ -658,8 +682,7 @@ PointCloud fuse_aligned_frames(const RgbdSequence& sequence, const AlignmentResu
   const AlignmentOptions& o = result.options;
   std::vector<const FrameAlignment*> frames;
   for (const FrameAlignment& f : result.frames)
-    if (f.status == FrameStatus::Registered && f.T_world_camera_final &&
-        (piece < 0 || f.piece == static_cast<std::size_t>(piece)))
+    if (f.trusted() && (piece < 0 || f.piece == static_cast<std::size_t>(piece)))
       frames.push_back(&f);
   std::vector<PointCloud> clouds(frames.size());
   tbb::parallel_for(std::size_t{0}, frames.size(), [&](std::size_t k) {

@@ -101,6 +101,25 @@ std::string_view to_string(DatasetFormat format) {
   return "unknown";
 }
 
+std::string_view to_string(DepthSensorKind kind) {
+  switch (kind) {
+    case DepthSensorKind::StructuredLight: return "structured_light";
+    case DepthSensorKind::TimeOfFlight: return "time_of_flight";
+    case DepthSensorKind::Synthetic: return "synthetic";
+    case DepthSensorKind::Unknown: break;
+  }
+  return "unknown";
+}
+
+std::string_view to_string(CaptureKind kind) {
+  switch (kind) {
+    case CaptureKind::HandHeldVideo: return "hand_held_video";
+    case CaptureKind::TripodTurn: return "tripod_turn";
+    case CaptureKind::Unknown: break;
+  }
+  return "unknown";
+}
+
 DatasetFormat detect_format(const fs::path& path) {
   std::error_code ec;
   if (fs::is_regular_file(path, ec)) {

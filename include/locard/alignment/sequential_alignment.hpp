@@ -86,12 +86,31 @@ struct AlignmentOptions {
   std::size_t loop_candidates_per_keyframe = 3;  // the nearest earlier keyframes of each
   std::size_t max_loop_candidates = 200;         // nearest first, over all keyframes
   PoseGraphOptions pose_graph;
+  // Self-check (view_verification.hpp): every registered view is tested against the model of
+  // the other views; `align` and `reconstruct` exit with kExitTooFewVerified when fewer than
+  // this share of the usable views is verified.
+  bool verify_views = true;
+  double min_verified_share = 0.9;
+  // Tripod turn: views per pitch ring in capture order (SequenceTraits::ring_sizes); empty
+  // when unknown. Used to propose ring-closure and ring-to-ring loop candidates.
+  std::vector<std::size_t> ring_sizes;
   std::uint64_t seed = 0;
   ProgressCallback progress;  // (frames done, frames total) over stage 2
 };
 
 enum class FrameStatus { Registered, Unusable, Failed };
 std::string_view to_string(FrameStatus status);
+
+// The self-check of one registered view against the model fused from the other views.
+struct ViewCheck {
+  bool checked = false;    // false: not run (verification off, or too few other views)
+  bool verified = false;   // passed every test below
+  double confidence = 0.0; // 0..1: 1 a view consistent with all others, 0 a rejected one
+  double residual_m = 0.0; // RMS point-to-plane distance of the view's overlapping points
+  double overlap = 0.0;    // share of the view's points within the gate of the others' model
+  double free_space = 0.0; // share of its points lying in space the other views saw empty
+  std::string reason;      // why flagged; empty when verified
+};
 
 struct FrameAlignment {
   std::size_t sequence_index = 0;  // index into RgbdSequence::frames
@@ -107,6 +126,12 @@ struct FrameAlignment {
   double fitness = 0.0;
   double inlier_rmse = 0.0;
   std::string initialisation;      // "features", "previous pose", "prediction", "first frame"
+  ViewCheck check;                 // registered frames only
+  // Registered and (when verification ran) verified: the frames fused and measured.
+  bool trusted() const {
+    return status == FrameStatus::Registered && T_world_camera_final &&
+           (!check.checked || check.verified);
+  }
 };
 
 struct LoopCandidate {
@@ -144,12 +169,24 @@ struct AlignmentResult {
   // Registered frames with their final poses (TUM-ready); piece < 0 means all pieces.
   Trajectory trajectory(long piece = -1) const;
   std::vector<std::int64_t> unregistered_frame_indices() const;
+  // Registered frames the self-check flagged, by frame index.
+  std::vector<std::int64_t> flagged_frame_indices() const;
+  std::size_t usable_frames() const;    // frames not Unusable
+  std::size_t trusted_frames() const;   // FrameAlignment::trusted()
+  // trusted / usable; 0 with no usable frame.
+  double trusted_share() const;
+  bool enough_trusted() const { return trusted_share() >= options.min_verified_share; }
 };
+
+// Exit status of `locard align` and `locard reconstruct` when fewer than
+// AlignmentOptions::min_verified_share of the usable views are verified (after writing what
+// they could, with the flagged views left out).
+inline constexpr int kExitTooFewVerified = 4;
 
 // Throws InputError for unusable options or a sequence without frames.
 AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOptions& options);
 
-// The registered frames fused into one coloured cloud in the world frame (voxel grid of
+// The trusted frames (FrameAlignment::trusted) fused into one coloured cloud in the world frame (voxel grid of
 // voxel_size): frames are re-read from the sequence. piece < 0: all pieces.
 PointCloud fuse_aligned_frames(const RgbdSequence& sequence, const AlignmentResult& result,
                                double voxel_size, long piece = -1);

@@ -35,6 +35,32 @@ std::string_view to_string(DatasetFormat format);
 // What is at `path`; Unknown if nothing matches (callers report what was looked for).
 DatasetFormat detect_format(const std::filesystem::path& path);
 
+// What the data is, as typed facts the readers record (never guessed from a file or folder
+// name). Every stage that picks defaults (align, reconstruct, mesh, the viewer) reads these.
+enum class DepthSensorKind {
+  Unknown,
+  StructuredLight,  // Kinect v1, Asus Xtion, PrimeSense: noise grows with z^2
+  TimeOfFlight,     // Kinect v2, Azure Kinect
+  Synthetic,        // rendered depth (ICL-NUIM), exact up to the stated noise
+};
+enum class CaptureKind {
+  Unknown,
+  HandHeldVideo,  // a continuous stream: consecutive frames a fraction of a second apart
+  TripodTurn,     // a set of views turned about a nearly fixed centre, in rings of pitch
+};
+std::string_view to_string(DepthSensorKind kind);
+std::string_view to_string(CaptureKind kind);
+
+struct SequenceTraits {
+  DepthSensorKind sensor = DepthSensorKind::Unknown;
+  CaptureKind capture = CaptureKind::Unknown;
+  bool color_registered_to_depth = true;  // colour pixel (u, v) sees what depth pixel (u, v) sees
+  // Tripod turn: views per pitch ring, in capture order (empty when unknown). A ring's first and
+  // last views overlap; view k of ring r overlaps view k of ring r + 1 (same yaw).
+  std::vector<std::size_t> ring_sizes;
+  std::string source;  // where these facts came from, for reports ("capture.json", ...)
+};
+
 struct FrameEntry {
   std::int64_t frame_index = -1;
   double timestamp = 0.0;
@@ -60,6 +86,7 @@ struct RgbdSequence {
   // A raw value the dataset uses for "no measurement" besides 0 (7-Scenes: 65535). Loading
   // turns it into 0 so no kernel mistakes it for a 65 m reading.
   std::optional<std::uint16_t> invalid_depth_value;
+  SequenceTraits traits;
   std::vector<FrameEntry> frames;  // frames with images, in capture order
   Trajectory ground_truth;         // every ground-truth pose the dataset has (may be more
                                    // poses than frames, e.g. 1000 poses for 374 7-Scenes frames)
