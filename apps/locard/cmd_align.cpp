@@ -10,6 +10,7 @@
 // Exit status: 0 aligned, 2 bad input, 3 fewer than two frames could be registered.
 #include "commands.hpp"
 
+#include <locard/alignment/alignment_defaults.hpp>
 #include <locard/alignment/pose_graph.hpp>
 #include <locard/alignment/scan_alignment.hpp>
 #include <locard/alignment/sequential_alignment.hpp>
@@ -40,12 +41,13 @@ namespace {
 struct AlignCliOptions {
   std::string sequence;
   std::string output;
-  std::string mode = "cumulative";
-  std::string odometry_icp = "colored";
+  // Unset: from the sequence's traits (default_alignment_options, alignment_defaults.hpp).
+  std::optional<std::string> mode;
+  std::optional<std::string> odometry_icp;
   double voxel = 0.02;
   int stride = 2;
   double min_depth = 0.3;
-  double max_depth = 4.0;
+  std::optional<double> max_depth;
   std::size_t first = 0;
   std::size_t frames = 0;
   bool no_loop_closure = false;
@@ -273,9 +275,19 @@ int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
   const DatasetFormat format = input_exists ? detect_format(opt.sequence) : DatasetFormat::Unknown;
   if (const auto set = find_scan_set(opt.sequence, format))
     return run_align_scans(opt, global, *set);
-  const auto mode = parse_alignment_mode(opt.mode);
-  if (!mode)
-    throw InputError(fmt::format("--mode must be cumulative or odometry, got '{}'", opt.mode));
+  std::optional<AlignmentMode> mode;
+  if (opt.mode) {
+    mode = parse_alignment_mode(*opt.mode);
+    if (!mode)
+      throw InputError(fmt::format("--mode must be cumulative or odometry, got '{}'", *opt.mode));
+  }
+  std::optional<IcpMethod> odometry_icp;
+  if (opt.odometry_icp) {
+    odometry_icp = parse_icp_method(*opt.odometry_icp);
+    if (!odometry_icp || *odometry_icp == IcpMethod::PointToPoint)
+      throw InputError(fmt::format("--odometry-icp must be colored or point-to-plane, got '{}'",
+                                   *opt.odometry_icp));
+  }
   if (!input_exists) throw_input_error(opt.sequence, "no such file or folder");
   if (format != DatasetFormat::Tum && format != DatasetFormat::SevenScenes &&
       format != DatasetFormat::Redwood)
@@ -287,17 +299,18 @@ int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
     throw_input_error(opt.output, "output folder is not empty; pass --force to write into it");
   const RgbdSequence sequence = open_rgbd_sequence(opt.sequence);
 
-  AlignmentOptions o;
-  o.mode = *mode;
-  const auto odometry_icp = parse_icp_method(opt.odometry_icp);
-  if (!odometry_icp || *odometry_icp == IcpMethod::PointToPoint)
-    throw InputError(fmt::format("--odometry-icp must be colored or point-to-plane, got '{}'",
-                                 opt.odometry_icp));
-  o.odometry_method = *odometry_icp;
+  // Defaults from what the data is; the flags the user gave override them.
+  AlignmentOptions o = default_alignment_options(sequence.traits);
+  if (mode) o.mode = *mode;
+  if (odometry_icp) o.odometry_method = *odometry_icp;
+  if (opt.max_depth) o.max_depth_m = *opt.max_depth;
   o.voxel_size = opt.voxel;
   o.stride = opt.stride;
   o.min_depth_m = opt.min_depth;
-  o.max_depth_m = opt.max_depth;
+  if (!global.quiet)
+    fmt::print("align: data: {} ({}); {} mode{}, {} ICP for odometry, depth to {:.1f} m\n",
+               describe(sequence.traits), sequence.traits.source, to_string(o.mode),
+               opt.mode ? " (--mode)" : "", to_string(o.odometry_method), o.max_depth_m);
   o.first_frame = opt.first;
   o.max_frames = opt.frames;
   o.loop_closure = !opt.no_loop_closure;
@@ -388,12 +401,13 @@ void register_align(CLI::App& app, GlobalOptions& global) {
   cmd->add_option("-o,--output", options->output, "Output folder")->required();
   cmd->add_option("--mode", options->mode,
                   "cumulative (each view against the model of all earlier views, features + "
-                  "ICP) or odometry (frame-to-local-model coloured ICP, for video)")
-      ->capture_default_str();
+                  "ICP) or odometry (frame-to-local-model coloured ICP, for video); default: "
+                  "from the data (odometry for video, cumulative for a tripod turn or when "
+                  "unknown)");
   cmd->add_option("--odometry-icp", options->odometry_icp,
                   "Odometry mode, last ICP level: colored (colour registered to depth) or "
-                  "point-to-plane")
-      ->capture_default_str();
+                  "point-to-plane; default: from the data (colored when colour is registered "
+                  "to depth)");
   cmd->add_option("--voxel", options->voxel, "Voxel size of frames and model (m)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
@@ -401,7 +415,9 @@ void register_align(CLI::App& app, GlobalOptions& global) {
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
   cmd->add_option("--min-depth", options->min_depth, "Nearest depth used (m)")->capture_default_str();
-  cmd->add_option("--max-depth", options->max_depth, "Farthest depth used (m)")->capture_default_str();
+  cmd->add_option("--max-depth", options->max_depth,
+                  "Farthest depth used (m); default: from the data (structured light 3, time "
+                  "of flight 4, synthetic 8)");
   cmd->add_option("--first", options->first, "First frame (index in the sequence)");
   cmd->add_option("--frames", options->frames, "Number of frames (0: all)");
   cmd->add_flag("--no-loop-closure", options->no_loop_closure, "Skip loop closure");

@@ -9,6 +9,7 @@
 #include <locard/io/stanford_conf.hpp>
 
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
 
@@ -74,7 +75,14 @@ int info_sequence(const InfoOptions& opt, const GlobalOptions& global) {
                         {"depth_scale", seq.depth_scale},
                         {"depth_range_m", {dmin, dmax}},
                         {"ground_truth", seq.has_ground_truth()},
-                        {"ground_truth_poses", seq.ground_truth.size()}};
+                        {"ground_truth_poses", seq.ground_truth.size()},
+                        {"absent_tail_frames", seq.absent_tail_frames},
+                        {"traits",
+                         {{"sensor", std::string(to_string(seq.traits.sensor))},
+                          {"capture", std::string(to_string(seq.traits.capture))},
+                          {"color_registered_to_depth", seq.traits.color_registered_to_depth},
+                          {"ring_sizes", seq.traits.ring_sizes},
+                          {"source", seq.traits.source}}}};
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
   }
@@ -84,6 +92,9 @@ int info_sequence(const InfoOptions& opt, const GlobalOptions& global) {
   fmt::print("path:          {}\n", opt.path);
   fmt::print("format:        {}\n", to_string(seq.format));
   fmt::print("frames:        {} with images\n", seq.frames.size());
+  if (seq.absent_tail_frames)
+    fmt::print("               (+{} listed after the last present depth image: left out)\n",
+               seq.absent_tail_frames);
   if (!seq.frames.empty())
     fmt::print("time span:     {:.3f} s .. {:.3f} s\n", seq.frames.front().timestamp,
                seq.frames.back().timestamp);
@@ -99,6 +110,14 @@ int info_sequence(const InfoOptions& opt, const GlobalOptions& global) {
                seq.ground_truth.size(), with_pose);
   else
     fmt::print("ground truth:  no\n");
+  const SequenceTraits& t = seq.traits;
+  fmt::print("depth sensor:  {}\n", to_string(t.sensor));
+  fmt::print("capture:       {}{}\n", to_string(t.capture),
+             t.ring_sizes.empty() ? std::string()
+                                  : fmt::format(" (rings of {} views)", fmt::join(t.ring_sizes, ", ")));
+  fmt::print("colour:        {}\n", t.color_registered_to_depth ? "registered to depth"
+                                                                 : "not registered to depth");
+  fmt::print("traits from:   {}\n", t.source);
   return 0;
 }
 
@@ -193,8 +212,9 @@ void register_info(CLI::App& app, GlobalOptions& global) {
     }
     if (!std::filesystem::exists(opt->path)) throw_input_error(opt->path, "no such file or folder");
     throw_input_error(opt->path,
-                      "not a recognised dataset (looked for TUM rgb.txt/depth.txt, 7-Scenes "
-                      "frame-*.pose.txt, Redwood color/ + depth/, .ply, .pcd, .conf)");
+                      "not a recognised dataset (looked for TUM rgb.txt/depth.txt or "
+                      "associate.txt, 7-Scenes frame-*.pose.txt, Redwood color/ + depth/, .ply, "
+                      ".pcd, .conf)");
   });
 }
 

@@ -12,6 +12,7 @@
 // trajectory.txt in DIR, or the sequence's ground truth. Exit status 2 on bad input.
 #include "commands.hpp"
 
+#include <locard/alignment/alignment_defaults.hpp>
 #include <locard/core/atomic_file.hpp>
 #include <locard/core/error.hpp>
 #include <locard/core/progress.hpp>
@@ -48,7 +49,7 @@ struct MeshOptions {
   std::string method = "tsdf";
   double voxel = 0.01;
   double truncation = 0.0;  // 0: 4 voxels
-  double max_depth = 4.0;
+  std::optional<double> max_depth;  // unset: from the sequence's depth sensor (alignment_defaults)
   double min_depth = 0.1;
   std::size_t step = 1;
   std::size_t max_frames = 0;
@@ -149,7 +150,7 @@ PointCloud merged_cloud(const MeshOptions& o, const GlobalOptions& global, std::
   const SequencePoses poses = load_poses(o, sequence);
   DepthToPointsOptions points;
   points.min_depth_m = std::max(o.min_depth, 0.001);
-  points.max_depth_m = o.max_depth;
+  points.max_depth_m = o.max_depth.value_or(default_max_depth_m(sequence.traits.sensor));
   Eigen::Vector3d centres = Eigen::Vector3d::Zero();
   std::size_t used = 0;
   ProgressBar bar("mesh", sequence.frames.size(), ProgressBar::should_show(global.quiet));
@@ -248,7 +249,7 @@ int run_mesh(const MeshOptions& o, const GlobalOptions& global) {
   FusionOptions fusion;
   fusion.tsdf.voxel_size = o.voxel;
   fusion.tsdf.truncation = o.truncation > 0.0 ? o.truncation : 4.0 * o.voxel;
-  fusion.tsdf.max_depth_m = o.max_depth;
+  fusion.tsdf.max_depth_m = o.max_depth.value_or(default_max_depth_m(sequence.traits.sensor));
   fusion.tsdf.min_depth_m = o.min_depth;
   fusion.frame_step = o.step;
   fusion.max_frames = o.max_frames;
@@ -354,9 +355,10 @@ void register_mesh(CLI::App& app, GlobalOptions& global) {
       ->capture_default_str();
   sub->add_option("--truncation", opt->truncation, "Truncation in metres (default 4 voxels)")
       ->check(CLI::NonNegativeNumber);
-  sub->add_option("--max-depth", opt->max_depth, "Ignore depth beyond this (m)")
-      ->check(CLI::PositiveNumber)
-      ->capture_default_str();
+  sub->add_option("--max-depth", opt->max_depth,
+                  "Ignore depth beyond this (m); default: from the data (structured light 3, "
+                  "time of flight 4, synthetic 8)")
+      ->check(CLI::PositiveNumber);
   sub->add_option("--min-depth", opt->min_depth, "Ignore depth closer than this (m)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();

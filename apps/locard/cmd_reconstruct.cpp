@@ -36,15 +36,15 @@ struct ReconstructCli {
 int run_reconstruct(const ReconstructCli& o, const GlobalOptions& global) {
   namespace fx = locard::forensics;
   if (!fs::exists(o.input)) throw_input_error(o.input, "no such file or folder");
-  // Sensor defaults first, then the config file, then flags.
-  std::string sensor;
+  // Defaults from what the data is (its traits), then the config file, then flags.
+  SequenceTraits traits;
   if (fs::is_directory(o.input)) {
     const DatasetFormat format = detect_format(o.input);
     if (format == DatasetFormat::Tum || format == DatasetFormat::SevenScenes ||
         format == DatasetFormat::Redwood)
-      sensor = open_rgbd_sequence(o.input).intrinsics.name;
+      traits = open_rgbd_sequence(o.input).traits;
   }
-  fx::ReconstructParameters p = fx::ReconstructParameters::defaults_for_sensor(sensor);
+  fx::ReconstructParameters p = fx::ReconstructParameters::defaults_for(traits);
   if (!o.config.empty()) p = fx::ReconstructParameters::from_json_file(o.config, p);
   if (!o.reference.empty()) p.reference = o.reference;
   if (o.voxel) p.align_voxel_m = *o.voxel;
@@ -109,7 +109,9 @@ void register_reconstruct(CLI::App& app, GlobalOptions& global) {
   cmd->add_option("--mesh-voxel", o->mesh_voxel, "TSDF voxel (m)")->check(CLI::PositiveNumber);
   cmd->add_option("--frames", o->frames, "Use at most this many frames");
   cmd->add_option("--seed", o->seed, "RANSAC seed");
-  cmd->add_option("--mode", o->mode, "cumulative or odometry");
+  cmd->add_option("--mode", o->mode,
+                  "cumulative or odometry (default: from the data: odometry for video, "
+                  "cumulative for a tripod turn)");
   cmd->add_flag("--no-pdf", o->no_pdf, "Do not print report.pdf");
   cmd->add_flag("--force", o->force, "Replace an existing case folder");
   set_runner(cmd, [o, &global] { return run_reconstruct(*o, global); });

@@ -61,17 +61,14 @@ double SensorNoiseModel::lateral_sigma_m(double z_m) const {
   return 0.0015 * std::max(z_m, 0.5);  // about 1.5 mrad: a pixel and a half of jitter
 }
 
-SensorNoiseModel SensorNoiseModel::for_camera(const std::string& intrinsics_name) {
+SensorNoiseModel SensorNoiseModel::for_sensor(DepthSensorKind sensor) {
   SensorNoiseModel m;
-  if (intrinsics_name.find("kinect_v2") != std::string::npos) {
-    m.name = "kinect_v2";
-    m.depth_step_m = 0.001;
-  } else if (intrinsics_name.find("realsense") != std::string::npos) {
-    m.name = "realsense";
-    m.depth_step_m = 0.001;
-  } else {
-    m.name = "structured_light";  // TUM, 7-Scenes, Redwood: PrimeSense-type sensors
-    m.depth_step_m = 0.001;
+  m.depth_step_m = 0.001;
+  switch (sensor) {
+    case DepthSensorKind::TimeOfFlight: m.name = "kinect_v2"; break;
+    case DepthSensorKind::StructuredLight:
+    case DepthSensorKind::Synthetic:
+    case DepthSensorKind::Unknown: m.name = "structured_light"; break;
   }
   return m;
 }
@@ -153,7 +150,19 @@ CaseModel CaseModel::load(const CaseFolder& folder) {
   K.cy = sensor.at("cy").get<double>();
   K.name = sensor.value("intrinsics_name", "");
   SensorNoiseModel noise;
-  noise.name = sensor.value("noise_model", "kinect_v2");
+  if (sensor.contains("noise_model")) {
+    noise.name = sensor.at("noise_model").get<std::string>();
+  } else if (sensor.contains("depth_sensor")) {
+    const std::string kind = sensor.at("depth_sensor").get<std::string>();
+    DepthSensorKind parsed = DepthSensorKind::Unknown;
+    for (DepthSensorKind k : {DepthSensorKind::StructuredLight, DepthSensorKind::TimeOfFlight,
+                              DepthSensorKind::Synthetic})
+      if (kind == to_string(k)) parsed = k;
+    noise = SensorNoiseModel::for_sensor(parsed);
+  } else {
+    // Legacy case.json (before sequence traits): only the intrinsics' preset name.
+    noise.name = K.name == "kinect_v2" ? "kinect_v2" : "structured_light";
+  }
   noise.depth_step_m = sensor.value("depth_step_m", 0.001);
   double voxel = 0.01;
   if (fs::exists(root / "mesh" / "mesh.json"))

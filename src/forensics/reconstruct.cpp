@@ -2,6 +2,7 @@
 
 #include "forensics/json_util.hpp"
 
+#include <locard/alignment/alignment_defaults.hpp>
 #include <locard/alignment/sequential_alignment.hpp>
 #include <locard/alignment/stage_report.hpp>
 #include <locard/core/atomic_file.hpp>
@@ -172,19 +173,12 @@ ReconstructParameters ReconstructParameters::from_json_file(const fs::path& path
   return p;
 }
 
-ReconstructParameters ReconstructParameters::defaults_for_sensor(const std::string& name) {
+ReconstructParameters ReconstructParameters::defaults_for(const SequenceTraits& traits) {
+  const AlignmentOptions a = default_alignment_options(traits);
   ReconstructParameters p;
-  if (name.find("kinect_v2") != std::string::npos) {
-    p.max_depth_m = 4.0;  // time of flight: usable to 4.5 m, noise grows beyond
-  } else if (name.find("tum") != std::string::npos || name.find("seven") != std::string::npos ||
-             name.find("kinect_v1") != std::string::npos) {
-    p.max_depth_m = 3.0;  // structured light: quadratic noise, keep near readings
-    p.mode = "odometry";  // hand-held video: consecutive frames overlap heavily
-    // Kinect v1's colour camera is offset from the depth camera and not registered to it: a
-    // photometric term would pull towards the wrong pixels (on 7-Scenes' 374 frames, ATE
-    // 78 mm with it, 48 mm without).
-    p.odometry_icp = "point-to-plane";
-  }
+  p.mode = std::string(to_string(a.mode));
+  p.odometry_icp = std::string(to_string(a.odometry_method));
+  p.max_depth_m = a.max_depth_m;
   return p;
 }
 
@@ -247,7 +241,7 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
   json input_files = json::array();
   for (const FileRecord& r : inputs)
     input_files.push_back({{"path", r.path}, {"bytes", r.bytes}, {"sha256", r.sha256}});
-  const SensorNoiseModel noise = SensorNoiseModel::for_camera(sequence.intrinsics.name);
+  const SensorNoiseModel noise = SensorNoiseModel::for_sensor(sequence.traits.sensor);
   json seeds = {{"ransac", P.seed}};
   if (fs::is_regular_file(input_root / "simulation.json")) {
     std::ifstream sim_in(input_root / "simulation.json");
@@ -280,7 +274,12 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
         {"cy", sequence.intrinsics.cy},
         {"depth_scale", sequence.depth_scale},
         {"noise_model", noise.name},
-        {"depth_step_m", noise.depth_step_m}}},
+        {"depth_step_m", noise.depth_step_m},
+        {"depth_sensor", std::string(to_string(sequence.traits.sensor))},
+        {"capture", std::string(to_string(sequence.traits.capture))},
+        {"color_registered_to_depth", sequence.traits.color_registered_to_depth},
+        {"ring_sizes", sequence.traits.ring_sizes},
+        {"traits_source", sequence.traits.source}}},
       {"parameters", parameters_json(P)},
       {"seeds", seeds},
       {"units", {{"length", "m"}, {"angle", "deg"}}}};
@@ -297,7 +296,7 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
 
   // ---- align
   t0 = Clock::now();
-  AlignmentOptions ao;
+  AlignmentOptions ao = default_alignment_options(sequence.traits);  // ring sizes and the rest
   ao.mode = *mode;
   ao.odometry_method = *odometry_icp;
   ao.voxel_size = P.align_voxel_m;

@@ -132,6 +132,7 @@ DatasetFormat detect_format(const fs::path& path) {
   if (!fs::is_directory(path, ec)) return DatasetFormat::Unknown;
   if (fs::is_regular_file(path / "rgb.txt", ec) && fs::is_regular_file(path / "depth.txt", ec))
     return DatasetFormat::Tum;
+  if (io_detail::tum_association_file(path)) return DatasetFormat::Tum;
   if (contains_seven_scenes_file(path)) return DatasetFormat::SevenScenes;
   if (fs::is_directory(path / "color", ec) && fs::is_directory(path / "depth", ec))
     return DatasetFormat::Redwood;
@@ -154,7 +155,7 @@ RgbdSequence open_rgbd_sequence(const fs::path& path, const SequenceOptions& opt
     case DatasetFormat::Unknown: break;
   }
   throw_input_error(path,
-                    "not a recognised RGB-D sequence: expected rgb.txt + depth.txt (TUM), "
+                    "not a recognised RGB-D sequence: expected rgb.txt + depth.txt or associate.txt (TUM), "
                     "frame-*.depth.png / frame-*.pose.txt (7-Scenes) or color/ + depth/ "
                     "folders (Redwood)");
 }

@@ -6,6 +6,8 @@
 #include <locard/core/error.hpp>
 #include <locard/io/image_io.hpp>
 
+#include <fmt/format.h>
+
 #include <map>
 #include <optional>
 #include <string>
@@ -79,6 +81,25 @@ void choose_intrinsics(RgbdSequence& sequence) {
   sequence.intrinsics_source = "camera-intrinsics.txt";
 }
 
+// 7-Scenes (Shotton et al. 2013; the data's SOURCE.md): a hand-held Kinect v1 (structured
+// light) recorded at 30 Hz, its colour camera not registered to the depth camera. The capture
+// kind is checked against the reference poses when frames have them: a stream moves a few
+// centimetres between frames.
+void choose_traits(RgbdSequence& sequence) {
+  SequenceTraits& t = sequence.traits;
+  t.sensor = DepthSensorKind::StructuredLight;
+  t.color_registered_to_depth = false;
+  const auto step = io_detail::median_ground_truth_step(sequence.frames);
+  const bool video = !step || (step->translation_m < io_detail::kMaxVideoStepM &&
+                               step->rotation_deg < io_detail::kMaxVideoStepDeg);
+  t.capture = video ? CaptureKind::HandHeldVideo : CaptureKind::Unknown;
+  t.source = "7-Scenes layout (frame-*.depth.png in mm, frame-*.pose.txt): hand-held Kinect v1 "
+             "structured light, colour camera not registered to depth";
+  if (step)
+    t.source += fmt::format("; median ground-truth step {:.3f} m, {:.2f} deg", step->translation_m,
+                            step->rotation_deg);
+}
+
 }  // namespace
 
 RgbdSequence read_seven_scenes_sequence(const fs::path& folder, const SequenceOptions& options) {
@@ -128,6 +149,8 @@ RgbdSequence read_seven_scenes_sequence(const fs::path& folder, const SequenceOp
 
   if (!options.intrinsics) choose_intrinsics(sequence);
   io_detail::apply_overrides(sequence, options);
+  io_detail::flip_negative_fy(sequence);
+  choose_traits(sequence);
   return sequence;
 }
 

@@ -12,6 +12,7 @@
 #include <locard/core/point_cloud.hpp>
 #include <locard/core/pose.hpp>
 #include <locard/core/triangle_mesh.hpp>
+#include <locard/io/rgbd_sequence.hpp>
 
 #include <Eigen/Core>
 
@@ -40,8 +41,11 @@ struct SensorNoiseModel {
 
   double axial_sigma_m(double z_m, double incidence_rad) const;
   double lateral_sigma_m(double z_m) const;
-  // From the sequence's intrinsics name ("kinect_v2", "tum_freiburg1", ...).
-  static SensorNoiseModel for_camera(const std::string& intrinsics_name);
+  // From the kind of depth sensor the reader found (SequenceTraits::sensor): time of flight ->
+  // kinect_v2; structured light -> structured_light; synthetic and unknown -> structured_light
+  // (ICL-NUIM's noisy release imitates a Kinect v1; for exact depth it overstates the noise,
+  // never understates it).
+  static SensorNoiseModel for_sensor(DepthSensorKind sensor);
 };
 
 struct ViewRecord {
@@ -66,7 +70,11 @@ class CaseModel {
   CaseModel(TriangleMesh mesh, std::vector<ViewRecord> views, CameraIntrinsics intrinsics,
             double depth_scale, SensorNoiseModel noise, double model_voxel_m);
   // Reads mesh/mesh.ply, alignment/trajectory.txt, alignment/pose_covariance.json and the
-  // sensor description in case.json. Throws InputError naming a missing or bad file.
+  // sensor description in case.json. Throws InputError naming a missing or bad file. The noise
+  // model is the recorded "noise_model"; without one, SensorNoiseModel::for_sensor of the
+  // recorded "depth_sensor"; a case.json older than both (only "intrinsics_name") gets
+  // kinect_v2 when that name is exactly the simulator's preset "kinect_v2", else
+  // structured_light (documented fallback for old cases only).
   static CaseModel load(const CaseFolder& folder);
   ~CaseModel();
   CaseModel(CaseModel&&) noexcept;

@@ -19,6 +19,7 @@
 // estimated), giving the scene's z-up frame.
 
 #include <locard/core/progress.hpp>
+#include <locard/io/rgbd_sequence.hpp>
 
 #include <cstdint>
 #include <filesystem>
@@ -30,10 +31,11 @@
 namespace locard::forensics {
 
 struct ReconstructParameters {
-  // Alignment (see AlignmentOptions)
+  // Alignment (see AlignmentOptions). The values here are AlignmentOptions{}'s; defaults_for()
+  // sets mode, odometry_icp and max_depth_m from the sequence's traits.
   std::string mode = "cumulative";
-  // Odometry mode's last ICP level: "colored" where colour is registered to depth (Kinect v2,
-  // the simulator, Redwood), "point-to-plane" where it is not (Kinect v1 / 7-Scenes, TUM).
+  // Odometry mode's last ICP level: "colored" where colour is registered to depth,
+  // "point-to-plane" where it is not (7-Scenes' Kinect v1).
   std::string odometry_icp = "colored";
   double align_voxel_m = 0.02;
   int stride = 2;
@@ -68,9 +70,9 @@ struct ReconstructParameters {
   std::string to_json() const;
   static ReconstructParameters from_json_file(const std::filesystem::path& path,
                                               const ReconstructParameters& defaults);
-  // Defaults for a sensor ("kinect_v2", "tum_freiburg1", "7scenes", "redwood"...): depth
-  // range and voxels suited to its noise.
-  static ReconstructParameters defaults_for_sensor(const std::string& intrinsics_name);
+  // Defaults for what the data is (alignment_defaults.hpp, docs/sensors.md): mode, odometry
+  // ICP and depth range from default_alignment_options(traits); the rest as above.
+  static ReconstructParameters defaults_for(const SequenceTraits& traits);
 };
 
 struct StageCallbacks {

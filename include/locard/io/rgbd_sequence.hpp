@@ -1,9 +1,12 @@
 #pragma once
 // Recorded RGB-D sequences, detected automatically from a folder:
-//  - TUM RGB-D: rgb.txt, depth.txt (+ groundtruth.txt); depth scale 5000; colour and depth
-//    associated by nearest timestamp within a tolerance.
+//  - TUM RGB-D: rgb.txt, depth.txt (+ groundtruth.txt), or an associate.py list
+//    (associate.txt: "t rgb/F t depth/F" either order, optionally with a pose per line); depth
+//    scale 5000; colour and depth associated by nearest timestamp within a tolerance.
 //  - 7-Scenes: frame-NNNNNN.{color.jpg|color.png, depth.png (mm), pose.txt (camera-to-world)}.
-//  - Redwood / Open3D: color/, depth/, *.log trajectories, camera intrinsics JSON.
+//  - Redwood / Open3D: color/, depth/, *.log trajectories, camera intrinsics JSON; also the
+//    ICL-NUIM sample layout (color/, depth/, pose.txt "tx ty tz qx qy qz qw" per frame).
+// Every reader fills `traits` from the data (docs/sensors.md lists the evidence).
 // A sequence is a cheap index (paths, timestamps, poses); images are read by load_frame().
 
 #include <locard/core/camera_intrinsics.hpp>
@@ -83,6 +86,9 @@ struct RgbdSequence {
   double depth_scale = 1000.0;
   std::string ground_truth_source;  // file(s) the ground truth came from; empty when none
   std::size_t dropped_frames = 0;   // TUM: depth frames without a colour match in tolerance
+  // TUM: listed frames after the last one whose depth image exists (a partial copy of a longer
+  // recording), left out of `frames`.
+  std::size_t absent_tail_frames = 0;
   // A raw value the dataset uses for "no measurement" besides 0 (7-Scenes: 65535). Loading
   // turns it into 0 so no kernel mistakes it for a 65 m reading.
   std::optional<std::uint16_t> invalid_depth_value;
