@@ -7,7 +7,11 @@
 //   stage_report.svg   the plot (the paper's Fig. 4)
 //   fused.ply          the registered frames fused into one coloured cloud (fused_piece<k>.ply)
 // Frames that could not be registered are listed by index on stderr and in the report.
-// Exit status: 0 aligned, 2 bad input, 3 fewer than two frames could be registered.
+// Every registered frame is checked against the other frames (ViewCheckOptions); flagged frames
+// are listed on stderr with the reason and left out of the trajectory and the fused cloud.
+// Exit status: 0 aligned, 2 bad input, 3 fewer than two frames could be registered,
+// 4 (kExitTooFewVerified) fewer than min_verified_share of the usable frames verified (the
+// outputs are still written, with the flagged frames left out).
 #include "commands.hpp"
 
 #include <locard/alignment/alignment_defaults.hpp>
@@ -352,6 +356,16 @@ int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
       std::fprintf(stderr, "locard: frame %lld not registered (%s): %s\n",
                    static_cast<long long>(f.frame_index), std::string(to_string(f.status)).c_str(),
                    f.reason.c_str());
+  for (const FrameAlignment& f : result.frames)
+    if (f.status == FrameStatus::Registered && f.check.checked && !f.check.verified)
+      std::fprintf(stderr, "locard: frame %lld flagged by the self-check, left out: %s\n",
+                   static_cast<long long>(f.frame_index), f.check.reason.c_str());
+  if (!result.enough_trusted())
+    std::fprintf(stderr,
+                 "locard: only %zu of %zu usable frames verified (%.0f %%, need %.0f %%): the "
+                 "model is incomplete or wrong; exit %d\n",
+                 result.trusted_frames(), result.usable_frames(), 100.0 * result.trusted_share(),
+                 100.0 * o.min_verified_share, kExitTooFewVerified);
   if (result.pieces > 1)
     std::fprintf(stderr,
                  "locard: the sequence falls into %zu unconnected pieces; each is written "
@@ -360,6 +374,8 @@ int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
   if (!global.quiet) {
     fmt::print("align: {} mode, {} of {} frames registered, {} piece{}\n", to_string(o.mode),
                registered, result.frames.size(), result.pieces, result.pieces == 1 ? "" : "s");
+    fmt::print("align: {} of {} usable frames verified by the self-check ({:.0f} %)\n",
+               result.trusted_frames(), result.usable_frames(), 100.0 * result.trusted_share());
     fmt::print("align: {} loop closure{} kept of {} candidates; pose graph {} nodes, {} edges, "
                "cost {:.4g} -> {:.4g}\n",
                accepted_loops, accepted_loops == 1 ? "" : "s", result.loops.size(),
@@ -381,7 +397,8 @@ int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
                t.total_s, t.prepare_s, t.register_s, t.loop_closure_s, t.pose_graph_s,
                opt.output);
   }
-  return registered >= 2 ? 0 : 3;
+  if (registered < 2) return 3;
+  return result.enough_trusted() ? 0 : kExitTooFewVerified;
 }
 
 }  // namespace

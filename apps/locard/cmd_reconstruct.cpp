@@ -3,6 +3,7 @@
 // and docs/case-format.md. Exit status: 0 done, 2 bad input (nothing written over).
 #include "commands.hpp"
 
+#include <locard/alignment/sequential_alignment.hpp>
 #include <locard/core/error.hpp>
 #include <locard/core/progress.hpp>
 #include <locard/forensics/reconstruct.hpp>
@@ -70,8 +71,9 @@ int run_reconstruct(const ReconstructCli& o, const GlobalOptions& global) {
   cb.log = [&](const std::string& m) { std::fprintf(stderr, "locard: %s\n", m.c_str()); };
   const fx::ReconstructSummary s = fx::reconstruct_case(o.input, o.output, p, o.force, cb);
   if (!global.quiet) {
-    fmt::print("reconstruct: {} of {} views registered; mesh {} vertices, {} triangles\n",
-               s.registered, s.frames, s.vertices, s.triangles);
+    fmt::print("reconstruct: {} of {} views registered, {} of {} usable verified by the "
+               "self-check; mesh {} vertices, {} triangles\n",
+               s.registered, s.frames, s.verified, s.usable, s.vertices, s.triangles);
     if (s.measurements)
       fmt::print("reconstruct: {} reference measurements, {} within their stated uncertainty "
                  "(measurements/table.csv)\n",
@@ -86,6 +88,13 @@ int run_reconstruct(const ReconstructCli& o, const GlobalOptions& global) {
     fmt::print("reconstruct: case folder {}\n", s.case_dir.string());
     fmt::print("reconstruct: report {}\n", fs::absolute(s.report_html).string());
     if (s.report_pdf) fmt::print("reconstruct: report {}\n", fs::absolute(*s.report_pdf).string());
+  }
+  if (!s.enough_verified) {
+    std::fprintf(stderr,
+                 "locard: only %zu of %zu usable views verified: the case is written with the "
+                 "flagged views left out, but the model is incomplete or wrong; exit %d\n",
+                 s.verified, s.usable, kExitTooFewVerified);
+    return kExitTooFewVerified;
   }
   return 0;
 }

@@ -20,6 +20,13 @@ const std::optional<Isometry3d>& stage_pose(const FrameAlignment& f, int stage) 
   return f.T_world_camera_final;
 }
 
+nlohmann::json pose_rows(const Isometry3d& T) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (int r = 0; r < 3; ++r)
+    rows.push_back({T.matrix()(r, 0), T.matrix()(r, 1), T.matrix()(r, 2), T.matrix()(r, 3)});
+  return rows;
+}
+
 nlohmann::json optional_json(const std::optional<double>& v) {
   return v ? nlohmann::json(*v) : nlohmann::json(nullptr);
 }
@@ -175,6 +182,14 @@ void write_stage_report_json(const std::filesystem::path& path, const AlignmentR
     if (f.status == FrameStatus::Registered) {
       e["piece"] = f.piece;
       e["initialisation"] = f.initialisation;
+      if (f.T_world_camera_final) e["T_world_camera"] = pose_rows(*f.T_world_camera_final);
+      const ViewCheck& c = f.check;
+      e["verified"] = f.trusted();
+      e["check"] = {{"checked", c.checked},        {"verified", c.verified},
+                    {"confidence", c.confidence},  {"overlap", c.overlap},
+                    {"residual_m", c.residual_m},  {"correction_m", c.correction_m},
+                    {"correction_deg", c.correction_deg}, {"free_space", c.free_space},
+                    {"constraint", c.constraint},  {"reason", c.reason}};
     } else {
       e["reason"] = f.reason;
     }
@@ -182,6 +197,9 @@ void write_stage_report_json(const std::filesystem::path& path, const AlignmentR
   }
   j["frames"] = frames;
   j["unregistered_frames"] = result.unregistered_frame_indices();
+  j["flagged_frames"] = result.flagged_frame_indices();
+  j["verified_share"] = result.trusted_share();
+  j["min_verified_share"] = result.options.min_verified_share;
   nlohmann::json loops = nlohmann::json::array();
   for (const LoopCandidate& c : result.loops) {
     const auto& fs = result.frames;

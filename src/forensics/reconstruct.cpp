@@ -182,6 +182,19 @@ ReconstructParameters ReconstructParameters::defaults_for(const SequenceTraits& 
   return p;
 }
 
+// Per registered view: the self-check's confidence and, when flagged, why.
+static json view_confidence_json(const AlignmentResult& result) {
+  json views = json::array();
+  for (const FrameAlignment& f : result.frames) {
+    if (f.status != FrameStatus::Registered) continue;
+    views.push_back({{"frame_index", f.frame_index},
+                     {"verified", f.trusted()},
+                     {"confidence", f.check.checked ? f.check.confidence : 1.0},
+                     {"reason", f.check.reason}});
+  }
+  return views;
+}
+
 ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_dir,
                                     const ReconstructParameters& P, bool force,
                                     const StageCallbacks& cb) {
@@ -318,6 +331,15 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
   AlignmentResult result = align_sequence(sequence, ao);
   end("align");
   for (const FrameAlignment& f : result.frames) summary.registered += f.status == FrameStatus::Registered;
+  summary.usable = result.usable_frames();
+  summary.verified = result.trusted_frames();
+  summary.flagged = result.flagged_frame_indices();
+  summary.enough_verified = result.enough_trusted();
+  for (const FrameAlignment& f : result.frames)
+    if (f.status == FrameStatus::Registered && f.check.checked && !f.check.verified)
+      note(fmt::format("frame {} flagged by the self-check, left out of the mesh and the "
+                       "measurements: {}",
+                       f.frame_index, f.check.reason));
   if (summary.registered < 2)
     throw InputError(fmt::format("{}: fewer than two frames could be registered; nothing to "
                                  "reconstruct",
@@ -439,6 +461,12 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
       {"pose_graph", {{"initial_cost", result.pose_graph.initial_cost},
                       {"final_cost", result.pose_graph.final_cost}}},
       {"unregistered_frames", result.unregistered_frame_indices()},
+      {"verified", summary.verified},
+      {"usable", summary.usable},
+      {"verified_share", result.trusted_share()},
+      {"min_verified_share", result.options.min_verified_share},
+      {"flagged_frames", summary.flagged},
+      {"view_confidence", view_confidence_json(result)},
       {"seconds", result.timings.total_s}};
   if (stage.has_ground_truth) {
     json s = json::array();
@@ -471,7 +499,7 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
   t0 = Clock::now();
   std::vector<std::optional<Isometry3d>> poses(sequence.frames.size());
   for (const FrameAlignment& f : result.frames)
-    if (f.status == FrameStatus::Registered && f.piece == 0 && f.T_world_camera_final)
+    if (f.trusted() && f.piece == 0)
       poses[f.sequence_index] = *f.T_world_camera_final;
   FusionOptions fo;
   fo.tsdf.voxel_size = P.mesh_voxel_m;

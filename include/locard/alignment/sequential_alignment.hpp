@@ -53,6 +53,34 @@
 namespace locard {
 
 enum class AlignmentMode { Cumulative, Odometry };
+
+// Stage 5, the self-check of every registered view against the model of the OTHER views
+// (leave-one-out, so a view cannot vouch for itself):
+//  - agreement: ICP of the view against the others' model, from its final pose; the
+//    correction it finds estimates the view's own error. Flagged above max_correction_m /
+//    max_correction_deg (between the accuracy a good view has and the error that makes a
+//    wrong model: 1 cm / 0.5 degree is a good view, 5 cm / 2 degrees a wrong one).
+//  - overlap: share of the view's points within 2 voxels of the others' model.
+//  - free space: others' surface points (seen by >= 2 other views) that lie in front of the
+//    view's own depth along its rays, i.e. surfaces the view claims to see through.
+//  - constraint: the smallest eigenvalue of the view's point-to-plane normal matrix (per
+//    point, so 1/3 for normals spread evenly): rotation only for a tripod turn (its position
+//    is held by the tripod), all six degrees of freedom for video. A bare wall constrains
+//    neither the slide along it nor the turn about its normal.
+//  - tripod (cumulative mode, the tripod-turn scheme): the camera centre lies within
+//    max_tripod_offset_m of the median centre of all views; a view placed elsewhere is wrong
+//    whatever its overlap (a symmetric room fits itself turned by 180 degrees).
+// A view that fails any test is flagged with the reason; flagged views leave the model and the
+// check runs again (at most `rounds` times), so one wrong view cannot condemn its neighbours.
+struct ViewCheckOptions {
+  double max_correction_m = 0.02;
+  double max_correction_deg = 1.0;
+  double min_overlap = 0.3;
+  double max_free_space = 0.1;
+  double min_constraint = 0.01;
+  double max_tripod_offset_m = 0.25;
+  int rounds = 3;
+};
 std::string_view to_string(AlignmentMode mode);
 std::optional<AlignmentMode> parse_alignment_mode(std::string_view name);
 
@@ -90,6 +118,7 @@ struct AlignmentOptions {
   // the other views; `align` and `reconstruct` exit with kExitTooFewVerified when fewer than
   // this share of the usable views is verified.
   bool verify_views = true;
+  ViewCheckOptions view_check;
   double min_verified_share = 0.9;
   // Tripod turn: views per pitch ring in capture order (SequenceTraits::ring_sizes); empty
   // when unknown. Used to propose ring-closure and ring-to-ring loop candidates.
@@ -108,7 +137,10 @@ struct ViewCheck {
   double confidence = 0.0; // 0..1: 1 a view consistent with all others, 0 a rejected one
   double residual_m = 0.0; // RMS point-to-plane distance of the view's overlapping points
   double overlap = 0.0;    // share of the view's points within the gate of the others' model
-  double free_space = 0.0; // share of its points lying in space the other views saw empty
+  double free_space = 0.0; // share of others' surface points in its view that it sees through
+  double constraint = 0.0; // smallest normalised eigenvalue of its point-to-plane matrix
+  double correction_m = 0.0;    // leave-one-out ICP correction of its pose
+  double correction_deg = 0.0;
   std::string reason;      // why flagged; empty when verified
 };
 
@@ -153,6 +185,7 @@ struct AlignmentTimings {
   double register_s = 0.0;
   double loop_closure_s = 0.0;
   double pose_graph_s = 0.0;
+  double verification_s = 0.0;
   double total_s = 0.0;
 };
 
@@ -166,7 +199,8 @@ struct AlignmentResult {
   std::size_t pieces = 0;              // connected pieces after loop closure
   AlignmentTimings timings;
 
-  // Registered frames with their final poses (TUM-ready); piece < 0 means all pieces.
+  // Trusted frames (registered, not flagged) with their final poses (TUM-ready); piece < 0
+  // means all pieces.
   Trajectory trajectory(long piece = -1) const;
   std::vector<std::int64_t> unregistered_frame_indices() const;
   // Registered frames the self-check flagged, by frame index.

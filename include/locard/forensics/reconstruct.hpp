@@ -89,6 +89,10 @@ struct ReconstructSummary {
   std::optional<std::filesystem::path> report_pdf;
   std::size_t frames = 0;
   std::size_t registered = 0;
+  std::size_t usable = 0;     // frames with enough depth to register
+  std::size_t verified = 0;   // registered and passed the self-check (the frames fused)
+  std::vector<std::int64_t> flagged;  // registered, failed the self-check, left out
+  bool enough_verified = true;  // verified >= min_verified_share of usable
   std::size_t vertices = 0;
   std::size_t triangles = 0;
   std::size_t measurements = 0;

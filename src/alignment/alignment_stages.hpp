@@ -1,0 +1,85 @@
+#pragma once
+// The stages of align_sequence (sequential_alignment.hpp) over one explicit state:
+//   prepare_frames   depth -> camera-frame clouds (step 1)
+//   track_frames     sequential registration into pieces (step 2)
+//   propose_loops    loop candidates from pose proximity, ring structure and piece ends (3)
+//   verify_loops     each candidate checked by registration (3)
+//   solve_graph      pose graph over odometry and loop edges, pieces joined (4)
+//   check_views      every registered view tested against the others' model (5)
+// Each stage reads what the earlier ones wrote and adds its own part; none reaches back.
+#include <locard/alignment/sequential_alignment.hpp>
+#include <locard/registration/global_registration.hpp>
+#include <locard/registration/icp.hpp>
+
+#include <cstddef>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace locard::alignment_detail {
+
+struct PreparedFrame {
+  PointCloud cloud;   // camera frame, voxel grid, normals towards the sensor, colours
+  PointCloud coarse;  // the same at twice the voxel size (first ICP level)
+  std::string unusable;  // non-empty: why this frame cannot be used
+};
+
+// A registration target at two resolutions (the coarse one is made once per model update).
+struct Target {
+  PointCloud fine;
+  PointCloud coarse;
+};
+Target make_target(PointCloud fine, double voxel_size);
+
+struct AlignmentState {
+  const RgbdSequence& sequence;
+  const AlignmentOptions& options;
+  std::size_t n = 0;                    // frames used
+  std::vector<PreparedFrame> prepared;  // one per frame used
+  AlignmentResult result;
+  std::vector<std::size_t> piece_of;    // tracking piece of each frame
+  std::vector<std::size_t> registered;  // indices into result.frames, in order
+  std::size_t piece_count = 0;
+  std::vector<LoopCandidate> candidates;
+
+  AlignmentState(const RgbdSequence& s, const AlignmentOptions& o) : sequence(s), options(o) {}
+  const Isometry3d& tracked_pose(std::size_t frame) const {
+    return *result.frames[frame].T_world_camera_icp;
+  }
+};
+
+void prepare_frames(AlignmentState& state);
+void track_frames(AlignmentState& state);
+void propose_loops(AlignmentState& state);
+void verify_loops(AlignmentState& state);
+void solve_graph(AlignmentState& state);
+void check_views(AlignmentState& state);
+
+// Shared registration steps (frame_registration.cpp).
+// ICP of a camera-frame cloud against a target, coarse to fine: point to plane at 2v with a 4v
+// gate, then at v with gates 2v and v; the last level uses `method`.
+IcpResult refine(const PointCloud& source_fine, const PointCloud& source_coarse,
+                 const Target& target, const Isometry3d& init, const AlignmentOptions& o,
+                 IcpMethod method);
+bool acceptable(const IcpResult& r, const AlignmentOptions& o, double min_fitness);
+std::string rejection(const IcpResult& r, const AlignmentOptions& o, double min_fitness);
+bool better(const IcpResult& a, const IcpResult& b);
+GlobalRegistrationResult features(const PointCloud& source, const PointCloud& target,
+                                  const Eigen::Vector3f& target_viewpoint,
+                                  const AlignmentOptions& o, std::uint64_t salt);
+// The ICP method of the last level for this run's mode.
+IcpMethod tracking_method(const AlignmentOptions& o);
+
+Eigen::Vector3d forward(const Isometry3d& T);
+double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b);
+double rotation_angle_deg(const Isometry3d& T);
+
+// Union-find over node indices.
+struct Components {
+  std::vector<std::size_t> parent;
+  explicit Components(std::size_t n);
+  std::size_t find(std::size_t x);
+  void join(std::size_t a, std::size_t b);
+};
+
+}  // namespace locard::alignment_detail

@@ -1,0 +1,291 @@
+// Stage 5 of align_sequence: every registered view checked against the model of the other
+// views (ViewCheckOptions in sequential_alignment.hpp says what is tested and why).
+#include "alignment/alignment_stages.hpp"
+
+#include "core/floor_to_int.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <fmt/format.h>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <unordered_map>
+
+namespace locard::alignment_detail {
+namespace {
+
+// One world voxel of the multi-view model: sums for the centroid and normal, and which views
+// saw it (a 64-bit Bloom mask of view ids: "contains" may say yes for another view with the
+// same id mod 64, which only makes the leave-one-out support smaller, never larger).
+struct ModelVoxel {
+  Eigen::Vector3f position_sum = Eigen::Vector3f::Zero();
+  Eigen::Vector3f normal_sum = Eigen::Vector3f::Zero();
+  std::uint32_t points = 0;
+  std::uint32_t views = 0;
+  std::uint64_t view_mask = 0;
+  std::size_t last_view = SIZE_MAX;
+
+  std::uint32_t support_without(std::size_t view) const {
+    const bool mine = (view_mask >> (view % 64)) & 1u;
+    return views - (mine ? 1u : 0u);
+  }
+};
+
+struct ViewModel {
+  std::vector<ModelVoxel> voxels;
+};
+
+std::uint64_t voxel_key(const Eigen::Vector3f& p, float inverse_size) {
+  const auto axis = [&](float x) {
+    return static_cast<std::uint64_t>(locard::detail::floor_to_int<std::int64_t>(x * inverse_size) + (1 << 20)) & 0x1fffff;
+  };
+  return axis(p.x()) | axis(p.y()) << 21 | axis(p.z()) << 42;
+}
+
+ViewModel build_model(const AlignmentState& s, const std::vector<char>& excluded) {
+  const float inverse = static_cast<float>(1.0 / s.options.voxel_size);
+  std::unordered_map<std::uint64_t, std::uint32_t> slot;
+  ViewModel model;
+  for (std::size_t i = 0; i < s.n; ++i) {
+    const FrameAlignment& f = s.result.frames[i];
+    if (f.status != FrameStatus::Registered || !f.T_world_camera_final || excluded[i]) continue;
+    const Eigen::Isometry3f T = f.T_world_camera_final->cast<float>();
+    const PointCloud& c = s.prepared[i].cloud;
+    for (std::size_t k = 0; k < c.size(); ++k) {
+      const Eigen::Vector3f p = T * c.positions[k];
+      if (!p.allFinite()) continue;
+      auto [it, inserted] = slot.emplace(voxel_key(p, inverse),
+                                         static_cast<std::uint32_t>(model.voxels.size()));
+      if (inserted) model.voxels.emplace_back();
+      ModelVoxel& v = model.voxels[it->second];
+      v.position_sum += p;
+      if (c.has_normals()) v.normal_sum += T.linear() * c.normals[k];
+      ++v.points;
+      if (v.last_view != i) {
+        v.last_view = i;
+        ++v.views;
+        v.view_mask |= std::uint64_t{1} << (i % 64);
+      }
+    }
+  }
+  return model;
+}
+
+// The others' model around view i: voxels inside the box spanned by the view's points and its
+// camera centre (where its rays run), seen by at least one other view.
+struct OthersModel {
+  PointCloud surface;          // support >= 1, with normals
+  std::vector<char> confirmed;  // support >= 2: used for the free-space test
+};
+
+OthersModel others_model(const ViewModel& model, std::size_t view, const Eigen::Vector3f& lo,
+                         const Eigen::Vector3f& hi) {
+  OthersModel out;
+  for (const ModelVoxel& v : model.voxels) {
+    const std::uint32_t support = v.support_without(view);
+    if (support == 0) continue;
+    const Eigen::Vector3f p = v.position_sum / static_cast<float>(v.points);
+    if ((p.array() < lo.array()).any() || (p.array() > hi.array()).any()) continue;
+    out.surface.positions.push_back(p);
+    const float norm = v.normal_sum.norm();
+    out.surface.normals.push_back(norm > 0.f ? Eigen::Vector3f(v.normal_sum / norm)
+                                             : Eigen::Vector3f::UnitZ());
+    out.confirmed.push_back(support >= 2);
+  }
+  return out;
+}
+
+// Smallest eigenvalue of the per-point normal matrix of the view's own points: rotation about
+// the camera centre only (tripod), or all six degrees of freedom with the rotation scaled by
+// the RMS lever arm (video).
+double constraint(const PointCloud& cloud, bool rotation_only) {
+  if (!cloud.has_normals() || cloud.empty()) return 0.0;
+  double lever2 = 0.0;
+  for (const Eigen::Vector3f& p : cloud.positions) lever2 += p.squaredNorm();
+  lever2 /= static_cast<double>(cloud.size());
+  const double lever = std::sqrt(std::max(lever2, 1e-12));
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+  for (std::size_t k = 0; k < cloud.size(); ++k) {
+    const Eigen::Vector3d p = cloud.positions[k].cast<double>();
+    const Eigen::Vector3d n = cloud.normals[k].cast<double>();
+    Eigen::Matrix<double, 6, 1> j;
+    j << p.cross(n) / lever, n;
+    A += j * j.transpose();
+  }
+  A /= static_cast<double>(cloud.size());
+  if (rotation_only) {
+    const Eigen::Matrix3d R = A.topLeftCorner<3, 3>();
+    return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(R).eigenvalues()(0);
+  }
+  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(A).eigenvalues()(0);
+}
+
+// Share of the others' confirmed surface points in the view's image that the view's depth
+// lies behind (it sees through them). The depth behind a point must hold over the point's
+// 3x3 pixel neighbourhood, so mixed pixels at depth edges do not count.
+double free_space_share(const AlignmentState& s, std::size_t i, const OthersModel& others) {
+  const FrameAlignment& f = s.result.frames[i];
+  const DepthImage depth = s.sequence.load_depth(f.sequence_index);
+  const CameraIntrinsics& K = s.sequence.intrinsics;
+  const double scale = s.sequence.depth_scale;
+  const Eigen::Isometry3f T_camera_world = f.T_world_camera_final->inverse().cast<float>();
+  const double v = s.options.voxel_size;
+  std::size_t agree = 0, through = 0;
+  for (std::size_t k = 0; k < others.surface.size(); ++k) {
+    if (!others.confirmed[k]) continue;
+    const Eigen::Vector3f p = T_camera_world * others.surface.positions[k];
+    const double z = p.z();
+    if (z < s.options.min_depth_m || z > s.options.max_depth_m) continue;
+    const int u = static_cast<int>(std::lround(K.fx * p.x() / z + K.cx));
+    const int r = static_cast<int>(std::lround(K.fy * p.y() / z + K.cy));
+    if (u < 1 || r < 1 || u + 1 >= depth.width() || r + 1 >= depth.height()) continue;
+    double nearest = INFINITY;
+    bool any = false;
+    for (int dr = -1; dr <= 1; ++dr)
+      for (int du = -1; du <= 1; ++du) {
+        const std::uint16_t raw = depth.at(u + du, r + dr);
+        if (raw == 0) continue;
+        any = true;
+        nearest = std::min(nearest, raw / scale);
+      }
+    if (!any) continue;
+    // Beyond three voxels and three times a structured-light sensor's axial noise.
+    const double margin = 3.0 * v + 0.0075 * z * z;
+    if (nearest > z + margin) ++through;
+    else if (std::abs(nearest - z) <= margin) ++agree;
+  }
+  const std::size_t seen = agree + through;
+  return seen ? static_cast<double>(through) / static_cast<double>(seen) : 0.0;
+}
+
+// Component-wise median of the registered camera centres (robust to a minority of wrong views).
+Eigen::Vector3d median_centre(const AlignmentState& s, const std::vector<std::size_t>& views) {
+  Eigen::Vector3d m;
+  for (int axis = 0; axis < 3; ++axis) {
+    std::vector<double> v;
+    for (std::size_t i : views) v.push_back(s.result.frames[i].T_world_camera_final->translation()(axis));
+    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
+    m(axis) = v[v.size() / 2];
+  }
+  return m;
+}
+
+ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_t i,
+                     const Eigen::Vector3d& tripod_centre) {
+  const AlignmentOptions& o = s.options;
+  const ViewCheckOptions& limits = o.view_check;
+  const FrameAlignment& f = s.result.frames[i];
+  const PointCloud& cloud = s.prepared[i].cloud;
+  const Isometry3d& T = *f.T_world_camera_final;
+  ViewCheck c;
+  c.checked = true;
+  c.constraint = constraint(cloud, o.mode == AlignmentMode::Cumulative);
+
+  Eigen::Vector3f lo = T.translation().cast<float>(), hi = lo;
+  const Eigen::Isometry3f Tf = T.cast<float>();
+  for (const Eigen::Vector3f& p : cloud.positions) {
+    const Eigen::Vector3f q = Tf * p;
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  const float margin = static_cast<float>(4.0 * o.voxel_size);
+  const OthersModel others = others_model(model, i, lo.array() - margin, hi.array() + margin);
+
+  std::vector<std::string> reasons;
+  if (others.surface.size() < 50) {
+    c.reason = "no other view overlaps it";
+    return c;
+  }
+  IcpOptions icp_options;
+  icp_options.method = IcpMethod::PointToPlane;
+  icp_options.min_fitness = 0.0;
+  icp_options.max_correspondence_distance = 2.0 * o.voxel_size;
+  icp_options.convergence.max_iterations = 20;
+  IcpResult r = icp(cloud, others.surface, T, icp_options);
+  c.overlap = r.fitness;
+  if (r.success) {
+    icp_options.max_correspondence_distance = o.voxel_size;
+    icp_options.convergence.max_iterations = 15;
+    const IcpResult fine = icp(cloud, others.surface, r.T_target_source, icp_options);
+    if (fine.success) r = fine;
+  }
+  if (!r.success) {
+    reasons.push_back("does not register against the other views: " + r.reason);
+  } else {
+    const Isometry3d correction = r.T_target_source * T.inverse();
+    c.correction_m = (r.T_target_source.translation() - T.translation()).norm();
+    c.correction_deg = rotation_angle_deg(correction);
+    c.residual_m = r.inlier_rmse;
+  }
+  c.free_space = free_space_share(s, i, others);
+
+  if (c.overlap < limits.min_overlap)
+    reasons.push_back(fmt::format("overlap with the other views {:.0f} % (need >= {:.0f} %)",
+                                  100 * c.overlap, 100 * limits.min_overlap));
+  if (r.success && (c.correction_m > limits.max_correction_m ||
+                    c.correction_deg > limits.max_correction_deg))
+    reasons.push_back(fmt::format("the other views place it {:.1f} mm / {:.2f} deg away "
+                                  "(allowed {:.0f} mm / {:.1f} deg)",
+                                  1000 * c.correction_m, c.correction_deg,
+                                  1000 * limits.max_correction_m, limits.max_correction_deg));
+  if (c.free_space > limits.max_free_space)
+    reasons.push_back(fmt::format("sees through {:.0f} % of the surfaces other views saw "
+                                  "(allowed {:.0f} %)",
+                                  100 * c.free_space, 100 * limits.max_free_space));
+  const double offset = (T.translation() - tripod_centre).norm();
+  if (o.mode == AlignmentMode::Cumulative && offset > limits.max_tripod_offset_m)
+    reasons.push_back(fmt::format("its camera stands {:.2f} m from the tripod's centre (allowed "
+                                  "{:.2f} m)",
+                                  offset, limits.max_tripod_offset_m));
+  if (c.constraint < limits.min_constraint)
+    reasons.push_back(fmt::format("geometry does not fix its pose (constraint {:.4f}, need >= "
+                                  "{:.3f}: a bare wall or plane)",
+                                  c.constraint, limits.min_constraint));
+  c.verified = reasons.empty();
+  for (const std::string& reason : reasons) c.reason += (c.reason.empty() ? "" : "; ") + reason;
+  // Confidence: the smallest margin to any limit, 1 far inside all of them, 0 at or past one.
+  const auto below = [](double value, double limit) {
+    return std::clamp(1.0 - value / limit, 0.0, 1.0);
+  };
+  const auto above = [](double value, double limit, double good) {
+    return std::clamp((value - limit) / (good - limit), 0.0, 1.0);
+  };
+  const double confidence = std::min({below(c.correction_m, limits.max_correction_m),
+                                      below(c.correction_deg, limits.max_correction_deg),
+                                      below(c.free_space, limits.max_free_space),
+                                      above(c.overlap, limits.min_overlap, 1.0),
+                                      above(c.constraint, limits.min_constraint,
+                                            5.0 * limits.min_constraint)});
+  c.confidence = c.verified ? std::clamp(confidence, 0.0, 1.0) : 0.0;
+  return c;
+}
+
+}  // namespace
+
+void check_views(AlignmentState& s) {
+  std::vector<std::size_t> views;
+  for (std::size_t i = 0; i < s.n; ++i)
+    if (s.result.frames[i].status == FrameStatus::Registered &&
+        s.result.frames[i].T_world_camera_final)
+      views.push_back(i);
+  if (views.size() < 2) return;
+  std::vector<char> excluded(s.n, 0);
+  const Eigen::Vector3d tripod_centre = median_centre(s, views);
+  for (int round = 0; round < std::max(1, s.options.view_check.rounds); ++round) {
+    const ViewModel model = build_model(s, excluded);
+    std::vector<ViewCheck> checks(views.size());
+    tbb::parallel_for(std::size_t{0}, views.size(),
+                      [&](std::size_t k) { checks[k] = check_view(s, model, views[k], tripod_centre); });
+    bool changed = false;
+    for (std::size_t k = 0; k < views.size(); ++k) {
+      const char flagged = checks[k].checked && !checks[k].verified;
+      changed |= flagged != excluded[views[k]];
+      excluded[views[k]] = flagged;
+      s.result.frames[views[k]].check = std::move(checks[k]);
+    }
+    if (!changed) break;
+  }
+}
+
+}  // namespace locard::alignment_detail
