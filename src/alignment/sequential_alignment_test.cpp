@@ -56,6 +56,14 @@ TEST(SequentialAlignment, BedroomTurnCumulativeStagesAndLoopClosure) {
   AlignmentOptions o;
   o.mode = AlignmentMode::Cumulative;
   const AlignmentResult r = align_sequence(seq, o);
+  // The self-check passes every view of a correct turn (each within 0.5 mm of the truth).
+  EXPECT_TRUE(r.flagged_frame_indices().empty());
+  EXPECT_TRUE(r.enough_trusted());
+  for (const FrameAlignment& f : r.frames) {
+    EXPECT_TRUE(f.check.checked) << f.frame_index;
+    EXPECT_GT(f.check.confidence, 0.0) << f.frame_index << ": " << f.check.reason;
+    EXPECT_LT(f.check.correction_m, 0.01) << f.frame_index;
+  }
   EXPECT_EQ(r.pieces, 1u);
   EXPECT_TRUE(r.unregistered_frame_indices().empty());
   ASSERT_EQ(r.trajectory().size(), seq.frames.size());
