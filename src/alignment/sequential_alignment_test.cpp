@@ -15,6 +15,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -147,6 +149,35 @@ TEST(SequentialAlignment, BlankFrameIsReportedNotGuessed) {
   EXPECT_EQ(t.size() + missing.size() + flagged.size(), 12u);
   EXPECT_LE(flagged.size(), 2u);
   for (const StampedPose& p : t) EXPECT_NE(p.frame_index, seq.frames[blank].frame_index);
+}
+
+// A view of a bare wall (constant depth: a plane facing the camera) fixes neither the slide
+// along the wall nor the turn about its normal; it must never be trusted as registered.
+TEST(SequentialAlignment, BareWallViewIsNeverTrusted) {
+  const fs::path copy = test::scratch_dir() / "bare-wall";
+  fs::copy(bedroom(), copy, fs::copy_options::recursive);
+  const RgbdSequence original = open_rgbd_sequence(copy);
+  const std::size_t wall = 6;
+  DepthImage plane = original.load_depth(wall);
+  std::fill(plane.data().begin(), plane.data().end(),
+            static_cast<std::uint16_t>(std::lround(1.2 * original.depth_scale)));
+  write_png(original.frames[wall].depth_path, plane);
+  const RgbdSequence seq = open_rgbd_sequence(copy);
+  AlignmentOptions o;
+  o.max_frames = 12;
+  o.loop_closure = false;
+  const AlignmentResult r = align_sequence(seq, o);
+  ASSERT_EQ(r.frames.size(), 12u);
+  const FrameAlignment& f = r.frames[wall];
+  EXPECT_FALSE(f.trusted()) << "constraint " << f.check.constraint;
+  if (f.status == FrameStatus::Registered) {
+    EXPECT_TRUE(f.check.checked);
+    EXPECT_FALSE(f.check.reason.empty());
+  }
+  std::printf("bare wall view: %s, %s\n", std::string(to_string(f.status)).c_str(),
+              (f.status == FrameStatus::Registered ? f.check.reason : f.reason).c_str());
+  const Trajectory t = r.trajectory();
+  for (const StampedPose& p : t) EXPECT_NE(p.frame_index, seq.frames[wall].frame_index);
 }
 
 TEST(SequentialAlignment, OptionsAndEmptyInputAreChecked) {
