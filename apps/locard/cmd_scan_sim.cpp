@@ -1,8 +1,10 @@
-// locard scan-sim: simulate a Kinect v2 tripod scan of a scene with exact ground truth.
+// locard scan-sim: simulate a Kinect tripod scan of a scene (a file, a built-in, or a random
+// room drawn from a seed) with exact ground truth.
 #include "commands.hpp"
 
 #include <locard/core/error.hpp>
 #include <locard/core/progress.hpp>
+#include <locard/sim/random_scene.hpp>
 #include <locard/sim/scan_writer.hpp>
 #include <locard/sim/scene.hpp>
 
@@ -22,6 +24,9 @@ struct ScanSimOptions {
   std::string output;
   std::optional<int> views;
   std::optional<std::uint64_t> seed;
+  std::optional<std::uint64_t> random;  // seed of a random room instead of a scene
+  std::string sensor;                   // with --random: kinect_v1 | kinect_v2 (drawn if empty)
+  std::string surfaces;                 // with --random: plain | textured (drawn if empty)
   bool no_noise = false;
   bool color_hd = false;
   bool force = false;
@@ -38,15 +43,29 @@ sim::Scene load_scene(const std::string& argument) {
   throw_input_error(argument, "no such scene file, nor a built-in scene (built-in: " + known + ")");
 }
 
+sim::RandomSceneOptions random_options(const ScanSimOptions& o) {
+  sim::RandomSceneOptions options;
+  if (!o.sensor.empty()) options.sensor = sim::parse_scanner_model(o.sensor);
+  if (!o.surfaces.empty()) options.surfaces = sim::parse_surface_kind(o.surfaces);
+  return options;
+}
+
 int run(const ScanSimOptions& o, const GlobalOptions& global) {
   const auto start = std::chrono::steady_clock::now();
   // Everything about the input is checked before the output folder is touched, so a bad scene
   // leaves nothing behind.
-  sim::Scene scene = load_scene(o.scene);
+  if (o.random && !o.scene.empty())
+    throw InputError("scan-sim: give a scene or --random SEED, not both");
+  if (!o.random && (!o.sensor.empty() || !o.surfaces.empty()))
+    throw InputError("scan-sim: --sensor and --surfaces apply to --random rooms only");
+  sim::Scene scene = o.random ? sim::random_scene(*o.random, random_options(o)) : load_scene(o.scene);
   if (o.views) scene.scanner.views = *o.views;
   if (o.seed) scene.scanner.seed = *o.seed;
   if (o.no_noise) scene.scanner.noise = false;
+  // A random room's scene.json is generated, not read: write it as scanned, overrides included.
+  if (o.random) scene.source_text = sim::scene_json(scene);
   sim::check_output_folder(o.output, o.force);
+  if (o.random && !global.quiet) fmt::print("scan-sim: {}\n", sim::random_scene_summary(scene));
 
   const std::size_t total = scene.scanner.views * scene.scanner.pitch_deg.size();
   ProgressBar bar("scan-sim", total, ProgressBar::should_show(global.quiet));
@@ -79,10 +98,20 @@ void register_scan_sim(CLI::App& app, GlobalOptions& global) {
   auto options = std::make_shared<ScanSimOptions>();
   CLI::App* cmd = app.add_subcommand(
       "scan-sim",
-      "Simulate a Kinect v2 tripod scan of a scene (default: the built-in bedroom) and write it "
-      "as a TUM RGB-D folder with exact ground truth");
+      "Simulate a Kinect tripod scan of a scene (default: the built-in bedroom; or a random room "
+      "with --random SEED) and write it as a TUM RGB-D folder with exact ground truth");
   cmd->add_option("scene", options->scene,
                   "Scene JSON file (docs/scene-format.md) or built-in scene name; default bedroom");
+  cmd->add_option("--random", options->random,
+                  "Draw a random room from SEED instead (size 2-8 m, 0-12 objects, tripod "
+                  "anywhere, 1-3 pitch rings of 24-72 views, Kinect v1 or v2; "
+                  "docs/simulator.md); prints what was drawn")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--sensor", options->sensor, "With --random: force the sensor")
+      ->check(CLI::IsMember({"kinect_v1", "kinect_v2"}));
+  cmd->add_option("--surfaces", options->surfaces,
+                  "With --random: force plain (untextured) or textured surfaces")
+      ->check(CLI::IsMember({"plain", "textured"}));
   cmd->add_option("-o,--output", options->output, "Output folder")->required();
   cmd->add_option("--views", options->views, "Views per pitch row (overrides the scene)")
       ->check(CLI::Range(1, 100000));

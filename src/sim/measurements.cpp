@@ -1,6 +1,8 @@
 #include <locard/sim/measurements.hpp>
 
 #include <locard/core/atomic_file.hpp>
+#include <locard/sim/raycaster.hpp>
+#include <locard/sim/scan_protocol.hpp>
 #include <locard/sim/scene_mesh.hpp>
 
 #include <nlohmann/json.hpp>
@@ -11,6 +13,8 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
+#include <string>
 
 namespace locard::sim {
 namespace {
@@ -98,7 +102,192 @@ Measurement mesh_extent(const SceneObject& o) {
   return m;
 }
 
+// Whether the scan sees a surface point: in at least one view it projects inside the image (a
+// few pixels in), lies within the sensor's range, and the ray from that view's centre reaches
+// it unoccluded (a point on an edge is hit within 2 mm of itself) at an incidence under 65
+// degrees, where neither Kinect drops it.
+class ScanVisibility {
+ public:
+  ScanVisibility(const Scene& scene, const KinectModel& model)
+      : mesh_(build_scene_mesh(scene)), raycaster_(mesh_.mesh), K_(model.intrinsics),
+        min_range_m_(model.min_range_m), max_range_m_(model.max_range_m) {
+    for (const StampedPose& pose : tripod_scan_trajectory(scene.scanner))
+      views_.push_back(pose.T_world_camera);
+  }
+
+  bool seen(const Eigen::Vector3d& p) const {
+    constexpr double kMarginPx = 4.0;
+    const double cos_max_incidence = std::cos(65.0 * std::numbers::pi / 180.0);
+    for (const Isometry3d& T_world_camera : views_) {
+      const Eigen::Vector3d q = T_world_camera.inverse() * p;
+      if (q.z() < min_range_m_ + 0.05 || q.z() > max_range_m_ - 0.05) continue;
+      const double u = K_.fx * q.x() / q.z() + K_.cx, v = K_.fy * q.y() / q.z() + K_.cy;
+      if (u < kMarginPx || v < kMarginPx || u > K_.width - 1 - kMarginPx ||
+          v > K_.height - 1 - kMarginPx)
+        continue;
+      const Eigen::Vector3d o = T_world_camera.translation();
+      const Eigen::Vector3d d = p - o;
+      const RayHit hit = raycaster_.intersect(o.cast<float>(), d.cast<float>());
+      if (!hit.hit() || std::abs(hit.t - 1.0) * d.norm() > 0.002) continue;
+      const Eigen::Vector3d n = mesh_.triangle_normals[hit.triangle].cast<double>();
+      if (std::abs(n.dot(d)) / d.norm() >= cos_max_incidence) return true;
+    }
+    return false;
+  }
+  bool seen(const Measurement& m) const { return seen(m.a) && seen(m.b); }
+
+ private:
+  SceneMesh mesh_;
+  Raycaster raycaster_;
+  CameraIntrinsics K_;
+  double min_range_m_;
+  double max_range_m_;
+  std::vector<Isometry3d> views_;
+};
+
+Measurement named(Measurement m, std::string name) {
+  m.name = std::move(name);
+  m.derived = true;
+  return m;
+}
+
+// Wall to wall along `axis` (0: x, 1: y), on lines through or near the tripod at heights the
+// pitch rings look at: the nearer wall is met at the ring's pitch.
+std::optional<Measurement> seen_room_span(const Scene& scene, const ScanVisibility& vis, int axis) {
+  const Eigen::Vector3d half = 0.5 * scene.room.size;
+  const Eigen::Vector3d s = scene.scanner.position;
+  const int other = 1 - axis;
+  const double nearer = half[axis] - std::abs(s[axis]);
+  std::vector<double> heights;
+  for (const double pitch : scene.scanner.pitch_deg)
+    heights.push_back(s.z() + nearer * std::tan(pitch * std::numbers::pi / 180.0));
+  heights.push_back(s.z());
+  heights.push_back(half.z());
+  std::vector<double> offsets;
+  for (const double d : {0.0, 0.3, -0.3, 0.6, -0.6, 1.0, -1.0}) offsets.push_back(s[other] + d);
+  for (const double z_raw : heights) {
+    const double z = std::clamp(z_raw, 0.05, scene.room.size.z() - 0.05);
+    for (const double c : offsets) {
+      if (std::abs(c) > half[other] - 0.05) continue;
+      Measurement m;
+      m.a[axis] = -half[axis];
+      m.b[axis] = half[axis];
+      m.a[other] = m.b[other] = c;
+      m.a.z() = m.b.z() = z;
+      if (vis.seen(m)) return m;
+    }
+  }
+  return std::nullopt;
+}
+
+std::optional<Measurement> seen_room_height(const Scene& scene, const ScanVisibility& vis) {
+  const Eigen::Vector3d half = 0.5 * scene.room.size;
+  const Eigen::Vector3d s = scene.scanner.position;
+  for (const double r : {1.0, 1.5, 2.0, 2.5, 3.0, 3.5}) {
+    for (int k = 0; k < 8; ++k) {
+      const double phi = 2.0 * std::numbers::pi * k / 8.0;
+      const double x = s.x() + r * std::cos(phi), y = s.y() + r * std::sin(phi);
+      if (std::abs(x) > half.x() - 0.05 || std::abs(y) > half.y() - 0.05) continue;
+      Measurement m;
+      m.a = {x, y, 0.0};
+      m.b = {x, y, scene.room.size.z()};
+      if (vis.seen(m)) return m;
+    }
+  }
+  return std::nullopt;
+}
+
+// Candidate lines on a box's or cylinder's surface, longest first (stable among equals).
+std::vector<Measurement> extent_candidates(const SceneObject& o) {
+  std::vector<Measurement> lines;
+  if (o.shape == ShapeKind::Box) {
+    const Eigen::Matrix3d R =
+        Eigen::AngleAxisd(o.yaw_deg * std::numbers::pi / 180.0, Eigen::Vector3d::UnitZ())
+            .toRotationMatrix();
+    auto corner = [&](int bits) {
+      Eigen::Vector3d local;
+      for (int i = 0; i < 3; ++i) local[i] = ((bits >> i) & 1 ? 0.5 : -0.5) * o.size[i];
+      return Eigen::Vector3d(o.center + R * local);
+    };
+    for (int bits = 0; bits < 8; ++bits)
+      for (int axis = 0; axis < 3; ++axis)
+        if (!((bits >> axis) & 1)) {
+          Measurement m;
+          m.a = corner(bits);
+          m.b = corner(bits | (1 << axis));
+          lines.push_back(m);
+        }
+  } else if (o.shape == ShapeKind::Cylinder) {
+    const int n = std::max(o.segments, 3);
+    auto rim = [&](int k, double z) {
+      const double phi = 2.0 * std::numbers::pi * k / n;
+      return Eigen::Vector3d(o.center.x() + o.radius * std::cos(phi),
+                             o.center.y() + o.radius * std::sin(phi), z);
+    };
+    const double z0 = o.center.z() - 0.5 * o.height, z1 = o.center.z() + 0.5 * o.height;
+    for (int k = 0; k < n; ++k) {
+      Measurement height;
+      height.a = rim(k, z0);
+      height.b = rim(k, z1);
+      lines.push_back(height);
+      if (k < n / 2) {
+        Measurement diameter;
+        diameter.a = rim(k, z1);
+        diameter.b = rim(k + n / 2, z1);
+        lines.push_back(diameter);
+      }
+    }
+  }
+  std::stable_sort(lines.begin(), lines.end(), [](const Measurement& x, const Measurement& y) {
+    return x.distance() > y.distance();
+  });
+  return lines;
+}
+
+std::optional<Measurement> seen_object_extent(const SceneObject& o, const Eigen::Vector3d& scanner,
+                                              const ScanVisibility& vis) {
+  Measurement largest;
+  switch (o.shape) {
+    case ShapeKind::Box: largest = box_extent(o, scanner); break;
+    case ShapeKind::Cylinder: largest = cylinder_extent(o, scanner); break;
+    case ShapeKind::Mesh: largest = mesh_extent(o); break;
+  }
+  if (vis.seen(largest)) return named(largest, o.name + " (largest extent)");
+  if (o.shape == ShapeKind::Mesh) {
+    // Pairs of seen vertices: each vertex is tested once.
+    const TriangleMesh mesh = object_mesh(o);
+    std::vector<Eigen::Vector3d> seen;
+    for (const auto& v : mesh.vertices)
+      if (vis.seen(v.cast<double>())) seen.push_back(v.cast<double>());
+    std::optional<Measurement> best;
+    for (std::size_t i = 0; i < seen.size(); ++i)
+      for (std::size_t j = i + 1; j < seen.size(); ++j)
+        if (!best || (seen[j] - seen[i]).norm() > best->distance()) {
+          Measurement m;
+          m.a = seen[i];
+          m.b = seen[j];
+          best = m;
+        }
+    if (best && best->distance() > 1e-6) return named(*best, o.name + " (longest seen)");
+    return std::nullopt;
+  }
+  for (const Measurement& m : extent_candidates(o))
+    if (vis.seen(m)) return named(m, o.name + " (longest seen)");
+  return std::nullopt;
+}
+
 }  // namespace
+
+std::vector<Measurement> derive_seen_measurements(const Scene& scene, const KinectModel& model) {
+  const ScanVisibility vis(scene, model);
+  std::vector<Measurement> out;
+  if (auto m = seen_room_span(scene, vis, 0)) out.push_back(named(*m, "Room width"));
+  if (auto m = seen_room_span(scene, vis, 1)) out.push_back(named(*m, "Room depth"));
+  if (auto m = seen_room_height(scene, vis)) out.push_back(named(*m, "Room height"));
+  for (const SceneObject& o : scene.objects)
+    if (auto m = seen_object_extent(o, scene.scanner.position, vis)) out.push_back(*m);
+  return out;
+}
 
 std::vector<Measurement> derive_measurements(const Scene& scene) {
   std::vector<Measurement> out;

@@ -7,11 +7,19 @@
 
 namespace locard::sim {
 
-ScanSimulator::ScanSimulator(Scene scene, const KinectV2Model& model)
+ScanSimulator::ScanSimulator(Scene scene)
+    : ScanSimulator(scene, KinectModel::of(scene.scanner.model)) {}
+
+ScanSimulator::ScanSimulator(Scene scene, const KinectModel& model)
     : scene_(std::move(scene)),
       model_(scene_.scanner.noise ? model : model.without_noise()),
       renderer_(build_scene_mesh(scene_)),
-      trajectory_(tripod_scan_trajectory(scene_.scanner)) {}
+      trajectory_(tripod_scan_trajectory(scene_.scanner)) {
+  if (model_.sensor != scene_.scanner.model)
+    throw Error("ScanSimulator: scene '" + scene_.name + "' is scanned with a " +
+                std::string(to_string(scene_.scanner.model)) + " but the sensor model is a " +
+                std::string(to_string(model_.sensor)));
+}
 
 SensorFrame ScanSimulator::render(std::size_t view, bool color_hd) const {
   if (view >= trajectory_.size())

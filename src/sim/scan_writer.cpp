@@ -46,7 +46,7 @@ nlohmann::ordered_json intrinsics_json(const CameraIntrinsics& K) {
 // clock), so the file is byte-identical for a seed too.
 void write_provenance(const fs::path& path, const ScanSimulator& sim, bool color_hd) {
   const Scene& scene = sim.scene();
-  const KinectV2Model& m = sim.model();
+  const KinectModel& m = sim.model();
   nlohmann::ordered_json doc;
   doc["generator"] = "locard scan-sim";
   doc["locard_version"] = LOCARD_VERSION;
@@ -64,17 +64,32 @@ void write_provenance(const fs::path& path, const ScanSimulator& sim, bool color
   doc["noise"] = scene.scanner.noise;
   doc["color_hd"] = color_hd;
   nlohmann::ordered_json sensor;
-  sensor["model"] = scene.scanner.model;
+  sensor["model"] = to_string(m.sensor);
   sensor["depth_intrinsics"] = intrinsics_json(m.intrinsics);
   if (color_hd) sensor["color_hd_intrinsics"] = intrinsics_json(m.color_hd_intrinsics);
   sensor["depth_scale"] = m.depth_scale;
   sensor["min_range_m"] = m.min_range_m;
   sensor["max_range_m"] = m.max_range_m;
   sensor["axial_noise"] = m.axial_noise;
-  sensor["axial_noise_model"] =
-      "Fankhauser et al. 2015: sigma_z[mm] = 1.5 - 0.5 z + 0.3 z^2 + "
-      "0.1 z^1.5 theta^2 / (pi/2 - theta)^2";
-  sensor["lateral_sigma_m"] = m.lateral_sigma_m;
+  switch (m.sensor) {
+    case ScannerModel::KinectV2:
+      sensor["axial_noise_model"] =
+          "Fankhauser et al. 2015: sigma_z[mm] = 1.5 - 0.5 z + 0.3 z^2 + "
+          "0.1 z^1.5 theta^2 / (pi/2 - theta)^2";
+      sensor["lateral_sigma_m"] = m.lateral_sigma_m;
+      break;
+    case ScannerModel::KinectV1:
+      sensor["axial_noise_model"] =
+          "Khoshelham & Elberink 2012, Nguyen et al. 2012: sigma_z[m] = 0.0012 + "
+          "0.0019 (z - 0.4)^2 + 0.0001 / sqrt(z) theta^2 / (pi/2 - theta)^2";
+      sensor["lateral_noise_model"] = "Nguyen et al. 2012: sigma_L[px] = base + grazing theta / "
+                                      "(pi/2 - theta)";
+      sensor["lateral_sigma_px"] = {{"base", m.lateral_base_px}, {"grazing", m.lateral_grazing_px}};
+      sensor["disparity_step_px"] = m.disparity_step_px;
+      sensor["disparity_focal_px"] = m.disparity_focal_px;
+      sensor["baseline_m"] = m.baseline_m;
+      break;
+  }
   sensor["flying_pixel_probability"] = m.flying_pixel_probability;
   sensor["flying_pixel_min_jump_m"] = m.flying_pixel_min_jump_m;
   sensor["dropouts"] = m.dropouts;
@@ -83,6 +98,29 @@ void write_provenance(const fs::path& path, const ScanSimulator& sim, bool color
                                       m.dark_dropout_full_luminance};
   sensor["color_noise_sigma"] = m.color_noise_sigma;
   doc["sensor"] = sensor;
+  AtomicFile file(path, /*binary=*/false);
+  file.stream() << doc.dump(2) << "\n";
+  file.commit();
+}
+
+// capture.json: the sequence traits a reader takes from the data (src/io/sequence_traits.cpp).
+// Views are written ring after ring, as tripod_scan_trajectory plans them.
+void write_capture(const fs::path& path, const ScanSimulator& sim) {
+  const ScannerSpec& scanner = sim.scene().scanner;
+  const DepthSensorKind depth_sensor = [&] {
+    switch (sim.model().sensor) {
+      case ScannerModel::KinectV2: return DepthSensorKind::TimeOfFlight;
+      case ScannerModel::KinectV1: return DepthSensorKind::StructuredLight;
+    }
+    return DepthSensorKind::Unknown;
+  }();
+  nlohmann::ordered_json doc;
+  doc["sensor"] = to_string(sim.model().sensor);
+  doc["depth_sensor"] = to_string(depth_sensor);
+  doc["capture"] = to_string(CaptureKind::TripodTurn);
+  doc["color_registered_to_depth"] = true;  // rgb/ is rendered on the depth pixel grid
+  doc["ring_sizes"] = std::vector<std::size_t>(scanner.pitch_deg.size(),
+                                               static_cast<std::size_t>(scanner.views));
   AtomicFile file(path, /*binary=*/false);
   file.stream() << doc.dump(2) << "\n";
   file.commit();
@@ -106,8 +144,13 @@ void check_output_folder(const fs::path& folder, bool force) {
 }
 
 ScanWriteSummary write_simulated_scan(const Scene& scene, const fs::path& folder,
+                                      const ScanWriteOptions& options) {
+  return write_simulated_scan(scene, folder, options, KinectModel::of(scene.scanner.model));
+}
+
+ScanWriteSummary write_simulated_scan(const Scene& scene, const fs::path& folder,
                                       const ScanWriteOptions& options,
-                                      const KinectV2Model& model) {
+                                      const KinectModel& model) {
   check_output_folder(folder, options.force);
   const ScanSimulator sim(scene, model);
   const Trajectory& trajectory = sim.trajectory();
@@ -126,6 +169,7 @@ ScanWriteSummary write_simulated_scan(const Scene& scene, const fs::path& folder
   write_measurements_json(folder / "measurements.json", scene.name, measurements);
   write_text(folder / "scene.json", scene.source_text);
   write_provenance(folder / "simulation.json", sim, options.color_hd);
+  write_capture(folder / "capture.json", sim);
   write_intrinsics_json(folder / "intrinsics.json", sim.model().intrinsics,
                         sim.model().depth_scale);
   if (options.color_hd)

@@ -85,6 +85,12 @@ TEST(ScanWriter, BedroomScanLoadsAsTumSequenceWithGroundTruth) {
   EXPECT_DOUBLE_EQ(seq.depth_scale, 1000.0);
   ASSERT_TRUE(seq.has_ground_truth());
   ASSERT_EQ(seq.ground_truth.size(), 50u);
+  // capture.json: the reader's traits come from it.
+  EXPECT_EQ(seq.traits.sensor, DepthSensorKind::TimeOfFlight);
+  EXPECT_EQ(seq.traits.capture, CaptureKind::TripodTurn);
+  EXPECT_TRUE(seq.traits.color_registered_to_depth);
+  EXPECT_EQ(seq.traits.ring_sizes, std::vector<std::size_t>{50});
+  EXPECT_EQ(seq.traits.source, "capture.json (kinect_v2)");
 
   // The written poses are the simulator's exact poses.
   const ScanSimulator sim(scene);
@@ -165,7 +171,7 @@ TEST(ScanWriter, SameSeedGivesByteIdenticalFilesWhateverTheThreadCount) {
   }
   const auto a = snapshot(root / "a");
   const auto b = snapshot(root / "b");
-  EXPECT_EQ(a.size(), 4u * 3 + 10);  // 4 views x (rgb, depth, rgb_hd) + 10 other files
+  EXPECT_EQ(a.size(), 4u * 3 + 11);  // 4 views x (rgb, depth, rgb_hd) + 11 other files
   ASSERT_EQ(a.size(), b.size());
   for (const auto& [name, bytes] : a) {
     ASSERT_TRUE(b.count(name)) << name;

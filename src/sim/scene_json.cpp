@@ -7,10 +7,13 @@
 #include <locard/core/error.hpp>
 #include <locard/io/ply.hpp>
 
+#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <limits>
 #include <set>
@@ -192,6 +195,8 @@ RoomSpec read_room(const json& j, const fs::path& file) {
   return room;
 }
 
+TriangleMesh read_inline_mesh(ObjectReader& r);  // below: the mesh written inline
+
 SceneObject read_object(const json& j, std::size_t index, const fs::path& file,
                         const fs::path& base_dir) {
   std::string where = "objects[" + std::to_string(index) + "]";
@@ -219,14 +224,20 @@ SceneObject read_object(const json& j, std::size_t index, const fs::path& file,
     o.segments = static_cast<int>(segments);
   } else if (shape == "mesh") {
     o.shape = ShapeKind::Mesh;
-    o.file = r.string("file");
-    if (o.file.is_relative()) o.file = base_dir / o.file;
+    // Either a PLY file or the mesh inline ("vertices" + "triangles", e.g. a generated room).
+    if (r.has("vertices") || r.has("triangles")) {
+      if (r.has("file")) r.fail(where + ": give either 'file' or 'vertices' + 'triangles', not both");
+      o.mesh = read_inline_mesh(r);
+    } else {
+      o.file = r.string("file");
+      if (o.file.is_relative()) o.file = base_dir / o.file;
+    }
     o.scale = r.positive("scale", 1.0);
   } else {
     r.fail(r.place("shape") + ": unknown shape '" + shape + "' (known: box, cylinder, mesh)");
   }
   r.finish();
-  if (o.shape == ShapeKind::Mesh) {
+  if (o.shape == ShapeKind::Mesh && !o.file.empty()) {
     if (!fs::is_regular_file(o.file))
       r.fail(where + ".file: mesh file not found: " + o.file.string());
     o.mesh = read_ply_mesh(o.file);
@@ -234,6 +245,39 @@ SceneObject read_object(const json& j, std::size_t index, const fs::path& file,
       throw_input_error(o.file, "mesh of " + where + " has no triangles");
   }
   return o;
+}
+
+// "vertices": [[x, y, z], ...] and "triangles": [[i, j, k], ...] (counter-clockwise seen from
+// outside, indices into vertices), in the object frame like a PLY's.
+TriangleMesh read_inline_mesh(ObjectReader& r) {
+  const json& vertices = r.required("vertices");
+  const json& triangles = r.required("triangles");
+  if (!vertices.is_array() || vertices.empty())
+    r.fail(r.place("vertices") + ": expected a non-empty array of [x, y, z], found " +
+           ObjectReader::describe(vertices));
+  if (!triangles.is_array() || triangles.empty())
+    r.fail(r.place("triangles") + ": expected a non-empty array of [i, j, k], found " +
+           ObjectReader::describe(triangles));
+  TriangleMesh mesh;
+  for (std::size_t i = 0; i < vertices.size(); ++i)
+    mesh.vertices.push_back(
+        r.vec3_value(vertices[i], "vertices[" + std::to_string(i) + "]").cast<float>());
+  for (std::size_t i = 0; i < triangles.size(); ++i) {
+    const json& t = triangles[i];
+    const std::string key = "triangles[" + std::to_string(i) + "]";
+    if (!t.is_array() || t.size() != 3)
+      r.fail(r.place(key) + ": expected 3 vertex indices, found " + ObjectReader::describe(t));
+    std::array<std::uint32_t, 3> tri{};
+    for (int k = 0; k < 3; ++k) {
+      if (!t[k].is_number_integer() || t[k].get<std::int64_t>() < 0 ||
+          t[k].get<std::int64_t>() >= static_cast<std::int64_t>(mesh.vertices.size()))
+        r.fail(r.place(key) + ": expected vertex indices from 0 to " +
+               std::to_string(mesh.vertices.size() - 1) + ", found " + t.dump());
+      tri[static_cast<std::size_t>(k)] = static_cast<std::uint32_t>(t[k].get<std::int64_t>());
+    }
+    mesh.triangles.push_back(tri);
+  }
+  return mesh;
 }
 
 Measurement read_measurement(const json& j, std::size_t index, const fs::path& file) {
@@ -249,9 +293,12 @@ Measurement read_measurement(const json& j, std::size_t index, const fs::path& f
 ScannerSpec read_scanner(const json& j, const fs::path& file) {
   ObjectReader r(j, "scanner", file);
   ScannerSpec s;
-  s.model = r.string_or("model", s.model);
-  if (s.model != "kinect_v2")
-    r.fail(r.place("model") + ": unknown scanner model '" + s.model + "' (known: kinect_v2)");
+  const std::string model = r.string_or("model", std::string(to_string(s.model)));
+  const std::optional<ScannerModel> parsed = parse_scanner_model(model);
+  if (!parsed)
+    r.fail(r.place("model") + ": unknown scanner model '" + model +
+           "' (known: kinect_v2, kinect_v1)");
+  s.model = *parsed;
   s.position = r.vec3_or("position", s.position);
   const double views = r.number_or("views", s.views);
   if (views < 1 || views > 100000 || views != std::floor(views))
@@ -298,6 +345,20 @@ std::string_view to_string(Texture texture) {
   return "plain";
 }
 
+std::string_view to_string(ScannerModel model) {
+  switch (model) {
+    case ScannerModel::KinectV2: return "kinect_v2";
+    case ScannerModel::KinectV1: return "kinect_v1";
+  }
+  return "kinect_v2";
+}
+
+std::optional<ScannerModel> parse_scanner_model(std::string_view name) {
+  for (ScannerModel m : {ScannerModel::KinectV2, ScannerModel::KinectV1})
+    if (name == to_string(m)) return m;
+  return std::nullopt;
+}
+
 std::string_view to_string(ShapeKind shape) {
   switch (shape) {
     case ShapeKind::Box: return "box";
@@ -333,6 +394,89 @@ Scene parse_scene(std::string_view json_text, const fs::path& source, const fs::
   if (const json* scanner = r.optional("scanner")) scene.scanner = read_scanner(*scanner, source);
   r.finish();
   return scene;
+}
+
+namespace {
+
+using ordered_json = nlohmann::ordered_json;
+
+ordered_json vec3_json(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+ordered_json color_json(Rgb8 c) { return {c.r, c.g, c.b}; }
+// A float as the shortest decimal that reads back to the same float: compact and exact.
+double shortest(float x) { return std::strtod(fmt::format("{}", x).c_str(), nullptr); }
+
+ordered_json object_json(const SceneObject& o) {
+  ordered_json j;
+  j["name"] = o.name;
+  j["shape"] = to_string(o.shape);
+  j["center"] = vec3_json(o.center);
+  j["yaw_deg"] = o.yaw_deg;
+  if (o.shape != ShapeKind::Mesh || o.has_color) j["color"] = color_json(o.color);
+  j["texture"] = to_string(o.texture);
+  j["texture_scale"] = o.texture_scale;
+  switch (o.shape) {
+    case ShapeKind::Box: j["size"] = vec3_json(o.size); break;
+    case ShapeKind::Cylinder:
+      j["radius"] = o.radius;
+      j["height"] = o.height;
+      j["segments"] = o.segments;
+      break;
+    case ShapeKind::Mesh:
+      if (!o.file.empty()) {
+        j["file"] = o.file.string();
+      } else {
+        ordered_json vertices = ordered_json::array();
+        for (const Eigen::Vector3f& v : o.mesh.vertices)
+          vertices.push_back({shortest(v.x()), shortest(v.y()), shortest(v.z())});
+        ordered_json triangles = ordered_json::array();
+        for (const auto& t : o.mesh.triangles) triangles.push_back({t[0], t[1], t[2]});
+        j["vertices"] = std::move(vertices);
+        j["triangles"] = std::move(triangles);
+      }
+      j["scale"] = o.scale;
+      break;
+  }
+  return j;
+}
+
+}  // namespace
+
+std::string scene_json(const Scene& scene) {
+  ordered_json room;
+  room["size"] = vec3_json(scene.room.size);
+  room["wall_color"] = color_json(scene.room.wall_color);
+  room["floor_color"] = color_json(scene.room.floor_color);
+  room["ceiling_color"] = color_json(scene.room.ceiling_color);
+  room["texture"] = to_string(scene.room.texture);
+  room["texture_scale"] = scene.room.texture_scale;
+  const ScannerSpec& sc = scene.scanner;
+  ordered_json scanner;
+  scanner["model"] = to_string(sc.model);
+  scanner["position"] = vec3_json(sc.position);
+  scanner["views"] = sc.views;
+  scanner["pitch_deg"] = sc.pitch_deg;
+  scanner["yaw_jitter_deg"] = sc.yaw_jitter_deg;
+  scanner["position_jitter_m"] = sc.position_jitter_m;
+  scanner["seed"] = sc.seed;
+  scanner["noise"] = sc.noise;
+
+  std::string out = "{\n  \"name\": " + ordered_json(scene.name).dump() + ",\n  \"room\": " +
+                    room.dump() + ",\n  \"objects\": [";
+  for (std::size_t i = 0; i < scene.objects.size(); ++i)
+    out += (i ? ",\n    " : "\n    ") + object_json(scene.objects[i]).dump();
+  out += scene.objects.empty() ? "],\n" : "\n  ],\n";
+  out += "  \"measurements\": [";
+  for (std::size_t i = 0; i < scene.measurements.size(); ++i) {
+    const Measurement& m = scene.measurements[i];
+    ordered_json j;
+    j["name"] = m.name;
+    j["a"] = vec3_json(m.a);
+    j["b"] = vec3_json(m.b);
+    out += (i ? ",\n    " : "\n    ") + j.dump();
+  }
+  out += scene.measurements.empty() ? "],\n" : "\n  ],\n";
+  out += "  \"scanner\": " + scanner.dump() + "\n}\n";
+  return out;
 }
 
 Scene read_scene(const fs::path& path) {

@@ -77,7 +77,7 @@ TEST(SceneJson, DefaultsForOptionalKeys) {
   EXPECT_EQ(s.name, "minimal");  // file stem
   EXPECT_TRUE(s.objects.empty());
   EXPECT_TRUE(s.measurements.empty());
-  EXPECT_EQ(s.scanner.model, "kinect_v2");
+  EXPECT_EQ(s.scanner.model, ScannerModel::KinectV2);
   EXPECT_EQ(s.scanner.views, 50);
   EXPECT_EQ(s.scanner.pitch_deg, std::vector<double>{0.0});
   EXPECT_TRUE(s.scanner.position.isApprox(Eigen::Vector3d(0, 0, 1.2)));
@@ -167,8 +167,15 @@ TEST(SceneJson, WrongTypesAndValuesAreNamed) {
               AllOf(HasSubstr("scanner.seed"), HasSubstr("non-negative integer")));
   EXPECT_THAT(error_of(R"({"room": {"size": [3, 4, 2]}, "scanner": {"noise": "no"}})"),
               AllOf(HasSubstr("scanner.noise"), HasSubstr("true or false")));
-  EXPECT_THAT(error_of(R"({"room": {"size": [3, 4, 2]}, "scanner": {"model": "kinect_v1"}})"),
-              HasSubstr("unknown scanner model 'kinect_v1'"));
+  EXPECT_THAT(error_of(R"({"room": {"size": [3, 4, 2]}, "scanner": {"model": "kinect_v3"}})"),
+              AllOf(HasSubstr("unknown scanner model 'kinect_v3'"), HasSubstr("kinect_v1")));
+  EXPECT_THAT(error_of(R"({"room": {"size": [3, 4, 2]}, "objects": [{"name": "m", "shape": "mesh",
+                 "center": [0, 0, 0], "vertices": [[0, 0, 0], [1, 0, 0], [0, 1, 0]],
+                 "triangles": [[0, 1, 3]]}]})"),
+              AllOf(HasSubstr("objects[0] \"m\".triangles[0]"), HasSubstr("from 0 to 2")));
+  EXPECT_THAT(error_of(R"({"room": {"size": [3, 4, 2]}, "objects": [{"name": "m", "shape": "mesh",
+                 "center": [0, 0, 0], "file": "m.ply", "vertices": [[0, 0, 0]], "triangles": []}]})"),
+              HasSubstr("not both"));
   EXPECT_THAT(error_of(R"({"room": {"size": [3, 4, 2]}, "scanner": {"pitch_deg": []}})"),
               HasSubstr("scanner.pitch_deg"));
   EXPECT_THAT(error_of(R"([1, 2, 3])"), HasSubstr("scene: expected an object, found an array"));

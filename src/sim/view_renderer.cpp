@@ -57,7 +57,7 @@ Eigen::Vector3d ViewRenderer::shaded_color(const SurfaceSample& s) const {
   return s.albedo * shading_factor(s.normal);
 }
 
-IdealDepth ViewRenderer::ideal_depth(const KinectV2Model& model, const Isometry3d& T_world_camera,
+IdealDepth ViewRenderer::ideal_depth(const KinectModel& model, const Isometry3d& T_world_camera,
                                      std::uint64_t seed, std::uint64_t view) const {
   return trace(model, T_world_camera, seed, view, nullptr);
 }
@@ -67,7 +67,7 @@ IdealDepth ViewRenderer::ideal_depth(const KinectV2Model& model, const Isometry3
 // by a seeded sub-pixel offset. Where the pixel and its 8 neighbours all hit one triangle, the
 // moved ray (less than a pixel away) meets that triangle's plane, which is solved directly;
 // elsewhere, near edges and silhouettes where lateral noise matters, the ray is cast again.
-IdealDepth ViewRenderer::trace(const KinectV2Model& model, const Isometry3d& T_world_camera,
+IdealDepth ViewRenderer::trace(const KinectModel& model, const Isometry3d& T_world_camera,
                                std::uint64_t seed, std::uint64_t view, ColorImage* color) const {
   const CameraIntrinsics& K = model.intrinsics;
   const int w = K.width, h = K.height;
@@ -103,7 +103,7 @@ IdealDepth ViewRenderer::trace(const KinectV2Model& model, const Isometry3d& T_w
       }
     }
   });
-  if (model.lateral_sigma_m <= 0.0) return ideal;
+  if (!model.lateral_noise()) return ideal;
 
   const std::vector<float> nominal_z = ideal.z;
   tbb::parallel_for(tbb::blocked_range<int>(0, h), [&](const tbb::blocked_range<int>& rows) {
@@ -112,7 +112,7 @@ IdealDepth ViewRenderer::trace(const KinectV2Model& model, const Isometry3d& T_w
         const std::size_t i = static_cast<std::size_t>(v) * w + u;
         if (triangle[i] == RayHit::kNoTriangle) continue;
         CounterRng rng(seed, RngStream::LateralNoise, view, i);
-        const double sigma_px = model.lateral_sigma_px(nominal_z[i]);
+        const double sigma_px = model.lateral_sigma_px(nominal_z[i], ideal.incidence[i]);
         const auto [nu, nv] = rng.normal_pair();
         const double du = sigma_px * nu, dv = sigma_px * nv;
         const Eigen::Vector3d direction = pixel_ray(K, T_world_camera, u + du, v + dv);
@@ -144,7 +144,7 @@ IdealDepth ViewRenderer::trace(const KinectV2Model& model, const Isometry3d& T_w
 }
 
 void ViewRenderer::write_color(ColorImage& image, int u, int v, Eigen::Vector3d rgb,
-                               const KinectV2Model& model, std::uint64_t seed,
+                               const KinectModel& model, std::uint64_t seed,
                                std::uint64_t view) const {
   if (model.color_noise_sigma > 0.0) {
     // Keyed by the image width too: HD and depth-resolution images draw different noise.
@@ -158,7 +158,7 @@ void ViewRenderer::write_color(ColorImage& image, int u, int v, Eigen::Vector3d 
     image.at(u, v, c) = static_cast<std::uint8_t>(std::clamp(rgb[c], 0.0, 255.0) + 0.5);
 }
 
-ColorImage ViewRenderer::color_image(const KinectV2Model& model, const CameraIntrinsics& K,
+ColorImage ViewRenderer::color_image(const KinectModel& model, const CameraIntrinsics& K,
                                      const Isometry3d& T_world_camera, std::uint64_t seed,
                                      std::uint64_t view) const {
   ColorImage image(K.width, K.height, 0);
@@ -181,7 +181,7 @@ ColorImage ViewRenderer::color_image(const KinectV2Model& model, const CameraInt
   return image;
 }
 
-SensorFrame ViewRenderer::render(const KinectV2Model& model, const Isometry3d& T_world_camera,
+SensorFrame ViewRenderer::render(const KinectModel& model, const Isometry3d& T_world_camera,
                                  std::uint64_t seed, std::uint64_t view, bool color_hd) const {
   SensorFrame frame;
   frame.depth = model.measure(trace(model, T_world_camera, seed, view, &frame.color), seed, view);

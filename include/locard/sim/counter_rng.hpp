@@ -26,6 +26,7 @@ enum class RngStream : std::uint64_t {
   DepthNoise = 2,
   ColorNoise = 3,
   LateralNoise = 4,
+  SceneLayout = 5,  // random_scene: the room, its objects and the scan drawn from a seed
 };
 
 class CounterRng {

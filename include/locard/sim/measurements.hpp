@@ -2,6 +2,7 @@
 // Ground-truth measurements of a simulated scene: the tape-measure distances a reconstruction
 // is checked against (the reference paper's Table I for the built-in bedroom).
 
+#include <locard/sim/kinect_model.hpp>
 #include <locard/sim/scene.hpp>
 
 #include <filesystem>
@@ -14,6 +15,19 @@ namespace locard::sim {
 // points on its surface on the side facing the scanner.
 std::vector<Measurement> scene_measurements(const Scene& scene);
 std::vector<Measurement> derive_measurements(const Scene& scene);
+
+// Measurements whose two end points are both seen by the scan the scene describes with sensor
+// `model` (each in at least one view: inside the image, within range, unoccluded, at an
+// incidence under 65 degrees), for scenes laid out by a program (random_scene) where the fixed
+// lines of derive_measurements may be hidden or out of range:
+//   "Room width", "Room depth": wall to wall along x / y, on the first line through or near the
+//     tripod, at a height one of the pitch rings looks at, whose ends are seen;
+//   "Room height": floor to ceiling at the first spot around the tripod where both are seen;
+//   "<name> (largest extent)": the object's longest edge (box), height or cap diameter
+//     (cylinder) or the pair derive_measurements takes (mesh), when seen; otherwise
+//     "<name> (longest seen)": the longest box edge / cylinder line / pair of mesh vertices seen.
+// A measurement with no seen candidate is left out.
+std::vector<Measurement> derive_seen_measurements(const Scene& scene, const KinectModel& model);
 
 // measurements.json: {"scene", "units": "m", "measurements": [{"name", "a", "b", "distance_m",
 // "source": "scene" | "derived"}]}. Atomic write.

@@ -5,7 +5,7 @@
 
 #include <locard/core/pose.hpp>
 #include <locard/core/rgbd_frame.hpp>
-#include <locard/sim/kinect_v2_model.hpp>
+#include <locard/sim/kinect_model.hpp>
 #include <locard/sim/measurements.hpp>
 #include <locard/sim/scene.hpp>
 #include <locard/sim/view_renderer.hpp>
@@ -16,12 +16,16 @@ namespace locard::sim {
 
 class ScanSimulator {
  public:
-  // Builds the mesh and BVH and plans the views. When scene.scanner.noise is false the model's
-  // random effects are switched off (its intrinsics and range stay).
-  explicit ScanSimulator(Scene scene, const KinectV2Model& model = {});
+  // Builds the mesh and BVH and plans the views, with the sensor the scene names
+  // (KinectModel::of(scene.scanner.model)). When scene.scanner.noise is false the model's
+  // random effects are switched off (its intrinsics, range and quantisation stay).
+  explicit ScanSimulator(Scene scene);
+  // The same with a sensor model of the caller's (e.g. one effect switched off); it must be
+  // the scene's sensor, or Error is thrown.
+  ScanSimulator(Scene scene, const KinectModel& model);
 
   const Scene& scene() const { return scene_; }
-  const KinectV2Model& model() const { return model_; }
+  const KinectModel& model() const { return model_; }
   const ViewRenderer& renderer() const { return renderer_; }
   const Trajectory& trajectory() const { return trajectory_; }  // exact T_world_camera
   std::size_t view_count() const { return trajectory_.size(); }
@@ -34,7 +38,7 @@ class ScanSimulator {
 
  private:
   Scene scene_;
-  KinectV2Model model_;
+  KinectModel model_;
   ViewRenderer renderer_;
   Trajectory trajectory_;
 };

@@ -7,12 +7,15 @@
 //   scene.ply        coloured ground-truth mesh
 //   measurements.json ground-truth distances (docs/scene-format.md)
 //   scene.json       the scene description as given; simulation.json: seed and sensor settings
+//   capture.json     what the data is, for the readers' sequence traits: {"sensor",
+//                    "depth_sensor", "capture": "tripod_turn", "color_registered_to_depth": true,
+//                    "ring_sizes": [views per pitch ring, in the order written]}
 //   rgb_hd/, rgb_hd.txt, intrinsics_rgb_hd.json  with color_hd: 1920x1080 colour, same poses
 // The index files (rgb.txt, depth.txt, groundtruth.txt) are written last, so an interrupted run
 // never looks like a complete sequence. Same scene, options and seed: byte-identical files.
 
 #include <locard/core/progress.hpp>
-#include <locard/sim/kinect_v2_model.hpp>
+#include <locard/sim/kinect_model.hpp>
 #include <locard/sim/scene.hpp>
 
 #include <cstddef>
@@ -34,10 +37,12 @@ struct ScanWriteSummary {
   std::size_t measurements = 0;
 };
 
-// Throws InputError if `folder` is a file, or holds anything and options.force is false.
+// Throws InputError if `folder` is a file, or holds anything and options.force is false. The
+// sensor is the scene's (scene.scanner.model), or `model` when given (it must be the same kind).
 ScanWriteSummary write_simulated_scan(const Scene& scene, const std::filesystem::path& folder,
-                                      const ScanWriteOptions& options = {},
-                                      const KinectV2Model& model = {});
+                                      const ScanWriteOptions& options = {});
+ScanWriteSummary write_simulated_scan(const Scene& scene, const std::filesystem::path& folder,
+                                      const ScanWriteOptions& options, const KinectModel& model);
 
 // The check above on its own, so a caller can refuse before any work.
 void check_output_folder(const std::filesystem::path& folder, bool force);

@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <optional>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -29,6 +30,13 @@ std::string_view to_string(Texture texture);
 enum class ShapeKind { Box, Cylinder, Mesh };
 
 std::string_view to_string(ShapeKind shape);
+
+// The depth camera of the scan (scene key scanner.model): the Kinect v2 (time of flight) or the
+// Kinect v1 (PrimeSense structured light). KinectModel (kinect_model.hpp) holds their errors.
+enum class ScannerModel { KinectV2, KinectV1 };
+
+std::string_view to_string(ScannerModel model);  // "kinect_v2", "kinect_v1"
+std::optional<ScannerModel> parse_scanner_model(std::string_view name);
 
 struct RoomSpec {
   Eigen::Vector3d size{4.0, 4.0, 2.6};  // width (x), depth (y), height (z)
@@ -48,9 +56,10 @@ struct SceneObject {
   double radius = 0.0;                             // Cylinder
   double height = 0.0;                             // Cylinder
   int segments = 48;                               // Cylinder facets around the axis
-  std::filesystem::path file;                      // Mesh: PLY, resolved against the scene file
+  std::filesystem::path file;                      // Mesh: PLY, resolved against the scene file;
+                                                   // empty when the mesh is given inline
   double scale = 1.0;                              // Mesh
-  TriangleMesh mesh;                               // Mesh: as read from `file` (object frame)
+  TriangleMesh mesh;                               // Mesh: from `file` or inline (object frame)
   Rgb8 color{180, 180, 180};
   bool has_color = false;  // Mesh: false keeps the PLY's own vertex colours when it has them
   Texture texture = Texture::Plain;
@@ -71,7 +80,7 @@ struct Measurement {
 // Tripod scan: `views` poses evenly spaced over 360 degrees of yaw for every pitch row, each
 // disturbed by seeded jitter as a hand turning a tripod head would.
 struct ScannerSpec {
-  std::string model = "kinect_v2";
+  ScannerModel model = ScannerModel::KinectV2;
   Eigen::Vector3d position{0.0, 0.0, 1.2};
   int views = 50;                         // per pitch row
   std::vector<double> pitch_deg{0.0};     // one row per entry; positive looks up
@@ -98,6 +107,12 @@ Scene read_scene(const std::filesystem::path& path);
 // Same from text; `source` names it in errors, `base_dir` resolves mesh files.
 Scene parse_scene(std::string_view json_text, const std::filesystem::path& source,
                   const std::filesystem::path& base_dir = {});
+
+// The scene as scene-file JSON that parse_scene reads back into the same scene: every key
+// written out (defaults too), one object or measurement per line. A mesh object is written as
+// its `file` when it has one, otherwise inline ("vertices", "triangles"; its own vertex colours
+// and normals are not written, so give it a `color`).
+std::string scene_json(const Scene& scene);
 
 // Scenes compiled into Locard, so `locard scan-sim` works with no data at all.
 std::vector<std::string> builtin_scene_names();

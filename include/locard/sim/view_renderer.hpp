@@ -1,11 +1,11 @@
 #pragma once
-// Renders what the simulated Kinect v2 records from one pose: the ideal geometry by ray casting
+// Renders what the simulated Kinect records from one pose: the ideal geometry by ray casting
 // (one ray per pixel through its centre, z-depth read straight off the hit distance), then the
 // sensor model's errors on top.
 
 #include <locard/core/image.hpp>
 #include <locard/core/pose.hpp>
-#include <locard/sim/kinect_v2_model.hpp>
+#include <locard/sim/kinect_model.hpp>
 #include <locard/sim/raycaster.hpp>
 #include <locard/sim/scene_mesh.hpp>
 
@@ -25,8 +25,8 @@ struct SurfaceSample {
 
 struct SensorFrame {
   ColorImage color;     // registered to depth: same size, same pixels
-  DepthImage depth;     // raw units (KinectV2Model::depth_scale per metre), 0 = no return
-  ColorImage color_hd;  // only when asked for: KinectV2Model::color_hd_intrinsics
+  DepthImage depth;     // raw units (KinectModel::depth_scale per metre), 0 = no return
+  ColorImage color_hd;  // only when asked for: KinectModel::color_hd_intrinsics
 };
 
 class ViewRenderer {
@@ -43,21 +43,21 @@ class ViewRenderer {
 
   // Ideal depth for intrinsics `K` from T_world_camera; lateral noise, when the model has
   // it, moves each pixel's ray by a seeded sub-pixel offset.
-  IdealDepth ideal_depth(const KinectV2Model& model, const Isometry3d& T_world_camera,
+  IdealDepth ideal_depth(const KinectModel& model, const Isometry3d& T_world_camera,
                          std::uint64_t seed, std::uint64_t view) const;
   // Colour image for any pinhole camera at the pose (depth resolution or HD).
-  ColorImage color_image(const KinectV2Model& model, const CameraIntrinsics& K,
+  ColorImage color_image(const KinectModel& model, const CameraIntrinsics& K,
                          const Isometry3d& T_world_camera, std::uint64_t seed,
                          std::uint64_t view) const;
 
-  SensorFrame render(const KinectV2Model& model, const Isometry3d& T_world_camera,
+  SensorFrame render(const KinectModel& model, const Isometry3d& T_world_camera,
                      std::uint64_t seed, std::uint64_t view, bool color_hd = false) const;
 
  private:
-  IdealDepth trace(const KinectV2Model& model, const Isometry3d& T_world_camera,
+  IdealDepth trace(const KinectModel& model, const Isometry3d& T_world_camera,
                    std::uint64_t seed, std::uint64_t view, ColorImage* color) const;
   void write_color(ColorImage& image, int u, int v, Eigen::Vector3d rgb,
-                   const KinectV2Model& model, std::uint64_t seed, std::uint64_t view) const;
+                   const KinectModel& model, std::uint64_t seed, std::uint64_t view) const;
 
   SceneMesh mesh_;
   Raycaster raycaster_;
