@@ -108,4 +108,7 @@ struct KinectModel {
   DepthImage measure(const IdealDepth& ideal, std::uint64_t seed, std::uint64_t view) const;
 };
 
+// The model's first name, from when it was the Kinect v2 only (its default still is).
+using KinectV2Model = KinectModel;
+
 }  // namespace locard::sim
