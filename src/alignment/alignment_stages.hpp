@@ -72,7 +72,6 @@ IcpMethod tracking_method(const AlignmentOptions& o);
 
 Eigen::Vector3d forward(const Isometry3d& T);
 double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b);
-double rotation_angle_deg(const Isometry3d& T);
 
 // Union-find over node indices.
 struct Components {

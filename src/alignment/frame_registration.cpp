@@ -103,10 +103,6 @@ double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::acos(std::clamp(a.dot(b), -1.0, 1.0)) * 180.0 / M_PI;
 }
 
-double rotation_angle_deg(const Isometry3d& T) {
-  return Eigen::AngleAxisd(T.linear()).angle() * 180.0 / M_PI;
-}
-
 Components::Components(std::size_t n) : parent(n) {
   std::iota(parent.begin(), parent.end(), 0);
 }

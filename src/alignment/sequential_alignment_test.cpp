@@ -109,17 +109,24 @@ TEST(SequentialAlignment, BedroomTurnCumulativeStagesAndLoopClosure) {
   EXPECT_EQ(std::count(text.begin(), text.end(), '\n') > 10, true);
 }
 
+// A copy of the bedroom scan (in a scratch folder named `name`) whose view `view` has every
+// depth pixel at `depth_m` (0: no measurement at all).
+RgbdSequence bedroom_with_flat_depth(const std::string& name, std::size_t view, double depth_m) {
+  const fs::path copy = test::scratch_dir() / name;
+  fs::copy(bedroom(), copy, fs::copy_options::recursive);
+  const RgbdSequence original = open_rgbd_sequence(copy);
+  DepthImage flat = original.load_depth(view);
+  std::fill(flat.data().begin(), flat.data().end(),
+            static_cast<std::uint16_t>(std::lround(depth_m * original.depth_scale)));
+  write_png(original.frames[view].depth_path, flat);
+  return open_rgbd_sequence(copy);
+}
+
 // A frame whose depth is all zero (covered lens) is reported by index and left out; the frames
 // around it are still aligned.
 TEST(SequentialAlignment, BlankFrameIsReportedNotGuessed) {
-  const fs::path copy = test::scratch_dir() / "blank";
-  fs::copy(bedroom(), copy, fs::copy_options::recursive);
-  const RgbdSequence original = open_rgbd_sequence(copy);
   const std::size_t blank = 7;
-  DepthImage zero = original.load_depth(blank);
-  std::fill(zero.data().begin(), zero.data().end(), std::uint16_t{0});
-  write_png(original.frames[blank].depth_path, zero);
-  const RgbdSequence seq = open_rgbd_sequence(copy);
+  const RgbdSequence seq = bedroom_with_flat_depth("blank", blank, 0.0);
   AlignmentOptions o;
   o.max_frames = 12;
   o.loop_closure = false;
@@ -154,15 +161,8 @@ TEST(SequentialAlignment, BlankFrameIsReportedNotGuessed) {
 // A view of a bare wall (constant depth: a plane facing the camera) fixes neither the slide
 // along the wall nor the turn about its normal; it must never be trusted as registered.
 TEST(SequentialAlignment, BareWallViewIsNeverTrusted) {
-  const fs::path copy = test::scratch_dir() / "bare-wall";
-  fs::copy(bedroom(), copy, fs::copy_options::recursive);
-  const RgbdSequence original = open_rgbd_sequence(copy);
   const std::size_t wall = 6;
-  DepthImage plane = original.load_depth(wall);
-  std::fill(plane.data().begin(), plane.data().end(),
-            static_cast<std::uint16_t>(std::lround(1.2 * original.depth_scale)));
-  write_png(original.frames[wall].depth_path, plane);
-  const RgbdSequence seq = open_rgbd_sequence(copy);
+  const RgbdSequence seq = bedroom_with_flat_depth("bare-wall", wall, 1.2);
   AlignmentOptions o;
   o.max_frames = 12;
   o.loop_closure = false;

@@ -213,9 +213,8 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   if (!r.success) {
     reasons.push_back("does not register against the other views: " + r.reason);
   } else {
-    const Isometry3d correction = r.T_target_source * T.inverse();
-    c.correction_m = (r.T_target_source.translation() - T.translation()).norm();
-    c.correction_deg = rotation_angle_deg(correction);
+    c.correction_m = translation_difference_m(T, r.T_target_source);
+    c.correction_deg = rotation_difference_deg(T, r.T_target_source);
     c.residual_m = r.inlier_rmse;
   }
   c.free_space = free_space_share(s, i, others);

@@ -1,6 +1,7 @@
 #include <locard/forensics/case_model.hpp>
 
 #include "forensics/json_util.hpp"
+#include "io/json_file.hpp"
 
 #include <locard/core/error.hpp>
 #include <locard/core/kdtree.hpp>
@@ -15,7 +16,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <mutex>
 
 namespace locard::forensics {
@@ -23,16 +23,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using nlohmann::json;
-
-json read_json(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw_input_error(path, "cannot be read");
-  try {
-    return json::parse(in);
-  } catch (const json::parse_error& e) {
-    throw_input_error(path, fmt::format("not valid JSON: {}", e.what()));
-  }
-}
 
 Isometry3d pose_from_json(const json& rows, const std::string& where) {
   if (!rows.is_array() || rows.size() != 4) throw InputError(where + ": expected a 4x4 matrix");
@@ -125,8 +115,8 @@ CaseModel& CaseModel::operator=(CaseModel&&) noexcept = default;
 CaseModel CaseModel::load(const CaseFolder& folder) {
   const fs::path root = folder.root();
   TriangleMesh mesh = folder.load_mesh();
-  const json case_json = read_json(root / "case.json");
-  const json views_json = read_json(root / "alignment" / "pose_covariance.json");
+  const json case_json = io_detail::read_json_file(root / "case.json");
+  const json views_json = io_detail::read_json_file(root / "alignment" / "pose_covariance.json");
   std::vector<ViewRecord> views;
   const fs::path cov_path = root / "alignment" / "pose_covariance.json";
   for (const json& v : views_json.at("views")) {
@@ -166,7 +156,7 @@ CaseModel CaseModel::load(const CaseFolder& folder) {
   noise.depth_step_m = sensor.value("depth_step_m", 0.001);
   double voxel = 0.01;
   if (fs::exists(root / "mesh" / "mesh.json"))
-    voxel = read_json(root / "mesh" / "mesh.json").value("voxel_size", 0.01);
+    voxel = io_detail::read_json_file(root / "mesh" / "mesh.json").value("voxel_size", 0.01);
   return CaseModel(std::move(mesh), std::move(views), K, sensor.value("depth_scale", 1000.0),
                    noise, voxel);
 }

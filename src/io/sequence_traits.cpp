@@ -1,6 +1,7 @@
 // Sequence traits from the data: capture.json / simulation.json of `locard scan-sim`, frame
 // timing, ground-truth motion, hole-free depth; and the negative-fy convention of ICL-NUIM.
 // Which evidence sets which trait for each dataset: docs/sensors.md.
+#include "io/json_file.hpp"
 #include "io/sequence_detail.hpp"
 
 #include <locard/core/error.hpp>
@@ -10,7 +11,6 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <fstream>
 #include <string>
 #include <vector>
 
@@ -24,16 +24,6 @@ double median(std::vector<double> v) {
   const std::size_t mid = v.size() / 2;
   std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
   return v[mid];
-}
-
-json read_json_file(const fs::path& path) {
-  std::ifstream in(path);
-  if (!in) throw_input_error(path, "cannot be read");
-  try {
-    return json::parse(in);
-  } catch (const json::parse_error& e) {
-    throw_input_error(path, fmt::format("not valid JSON: {}", e.what()));
-  }
 }
 
 // A scan-sim sensor model name, parsed once here.
@@ -93,7 +83,7 @@ std::optional<MotionStep> median_ground_truth_step(const std::vector<FrameEntry>
 std::optional<SequenceTraits> read_capture_json(const fs::path& folder) {
   const fs::path path = folder / "capture.json";
   if (!fs::is_regular_file(path)) return std::nullopt;
-  const json j = read_json_file(path);
+  const json j = io_detail::read_json_file(path);
   if (!j.is_object()) throw_input_error(path, "expected a JSON object");
   SequenceTraits t;
   t.source = "capture.json";
@@ -160,7 +150,7 @@ std::optional<SequenceTraits> read_capture_json(const fs::path& folder) {
 std::optional<SequenceTraits> traits_from_simulation_json(const fs::path& folder) {
   const fs::path path = folder / "simulation.json";
   if (!fs::is_regular_file(path)) return std::nullopt;
-  const json j = read_json_file(path);
+  const json j = io_detail::read_json_file(path);
   if (!j.is_object() || j.value("generator", "") != "locard scan-sim") return std::nullopt;
   const auto bad = [&](const std::string& key, const std::string& what) {
     throw_input_error(path, fmt::format("\"{}\": {}", key, what));

@@ -6,6 +6,8 @@
 #include <locard/sim/scene_mesh.hpp>
 #include <locard/sim/view_renderer.hpp>
 
+#include "sim/sensor_test_util.hpp"
+
 #include <gtest/gtest.h>
 
 #include <Eigen/Geometry>
@@ -21,22 +23,7 @@ namespace {
 
 constexpr double kDeg = std::numbers::pi / 180.0;
 
-// A 80 m square through `center` with unit normal `n` (facing the camera at the origin).
-SceneMesh plane_through(const Eigen::Vector3d& center, const Eigen::Vector3d& n) {
-  const Eigen::Vector3d e1 = Eigen::Vector3d::UnitX() * 40.0;
-  const Eigen::Vector3d e2 = n.cross(e1);
-  const std::array<Eigen::Vector3d, 4> corners{center - e1 - e2, center + e1 - e2,
-                                               center + e1 + e2, center - e1 + e2};
-  TriangleMesh quad;
-  for (const Eigen::Vector3d& p : corners) {
-    quad.vertices.push_back(p.cast<float>());
-    quad.vertex_colors.push_back({200, 200, 200});
-  }
-  quad.triangles = {{0, 1, 2}, {0, 2, 3}};
-  SceneMesh mesh;
-  mesh.add_part(quad, {}, "plane");
-  return mesh;
-}
+using test::plane_through;
 
 IdealDepth constant_depth(double z, double incidence_rad) {
   IdealDepth ideal(640, 480);

@@ -135,7 +135,7 @@ struct ViewCheck {
   bool checked = false;    // false: not run (verification off, or too few other views)
   bool verified = false;   // passed every test below
   double confidence = 0.0; // 0..1: 1 a view consistent with all others, 0 a rejected one
-  double residual_m = 0.0; // RMS point-to-plane distance of the view's overlapping points
+  double residual_m = 0.0; // inlier RMSE of the leave-one-out ICP (point-to-point distance)
   double overlap = 0.0;    // share of the view's points within the gate of the others' model
   double free_space = 0.0; // share of others' surface points in its view that it sees through
   double constraint = 0.0; // smallest normalised eigenvalue of its point-to-plane matrix
