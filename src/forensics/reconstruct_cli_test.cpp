@@ -75,7 +75,8 @@ TEST_F(ReconstructCli, WritesTheDocumentedLayout) {
   EXPECT_EQ(c["seeds"]["simulation"], 1);
   EXPECT_EQ(c["parameters"]["max_frames"], 8);
   EXPECT_FALSE(c["software"]["version"].get<std::string>().empty());
-  EXPECT_EQ(c["inputs"]["files"].size(), 4u + 2u * 50u + 4u);  // index files, images, scene...
+  // index files, images, scene, simulation, intrinsics, measurements and capture.json
+  EXPECT_EQ(c["inputs"]["files"].size(), 4u + 2u * 50u + 5u);
   // The 8 views see only part of the room: reference points elsewhere are reported.
   const auto t = nlohmann::json::parse(read(case_dir() / "measurements" / "table.json"));
   EXPECT_EQ(t["rows"].size(), 12u);
