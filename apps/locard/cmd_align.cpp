@@ -382,7 +382,7 @@ int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
                result.graph.nodes.size(), result.graph.edges.size(),
                result.pose_graph.initial_cost, result.pose_graph.final_cost);
     if (report.has_ground_truth) {
-      const char* names[3] = {"after SVD", "after ICP", "after loop closure"};
+      const char* names[3] = {"initial pose (SVD or tripod guess)", "after ICP", "after loop closure"};
       for (int s = 0; s < 3; ++s) {
         const StageSummary& sum = report.summary[s];
         if (!sum.views) continue;

@@ -13,6 +13,8 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -25,11 +27,18 @@ struct PreparedFrame {
 };
 
 // A registration target at two resolutions (the coarse one is made once per model update).
+// A tracking model is also prepared for point-to-plane ICP once (kd-trees), as every guess of
+// a frame runs against it.
 struct Target {
   PointCloud fine;
   PointCloud coarse;
+  std::shared_ptr<const IcpTarget> fine_icp;    // point to plane; null: prepared per call
+  std::shared_ptr<const IcpTarget> coarse_icp;
+  std::shared_ptr<const IcpTarget> fine_colored_icp;  // the last level, when coloured
 };
 Target make_target(PointCloud fine, double voxel_size);
+// Prepares the target for refine() with `method` on the last level.
+void prepare_for_icp(Target& target, double voxel_size, IcpMethod method);
 
 struct AlignmentState {
   const RgbdSequence& sequence;
@@ -58,9 +67,10 @@ void check_views(AlignmentState& state);
 // Shared registration steps (frame_registration.cpp).
 // ICP of a camera-frame cloud against a target, coarse to fine: point to plane at 2v with a 4v
 // gate, then at v with gates 2v and v; the last level uses `method`.
+// `prior` (tripod tracking) holds what the geometry leaves free.
 IcpResult refine(const PointCloud& source_fine, const PointCloud& source_coarse,
                  const Target& target, const Isometry3d& init, const AlignmentOptions& o,
-                 IcpMethod method);
+                 IcpMethod method, const std::optional<IcpPosePrior>& prior = std::nullopt);
 bool acceptable(const IcpResult& r, const AlignmentOptions& o, double min_fitness);
 std::string rejection(const IcpResult& r, const AlignmentOptions& o, double min_fitness);
 bool better(const IcpResult& a, const IcpResult& b);
@@ -69,6 +79,22 @@ GlobalRegistrationResult features(const PointCloud& source, const PointCloud& ta
                                   const AlignmentOptions& o, std::uint64_t salt);
 // The ICP method of the last level for this run's mode.
 IcpMethod tracking_method(const AlignmentOptions& o);
+// The first ICP level alone, short: a cheap score for one of many initial guesses.
+IcpResult screen(const PointCloud& source_coarse, const Target& target, const Isometry3d& init,
+                 const AlignmentOptions& o,
+                 const std::optional<IcpPosePrior>& prior = std::nullopt);
+
+// Tripod tracking (tripod_tracking.cpp): the registration of frame `frame` against the model
+// of the piece so far, from turns (and tilts) of the previous pose about the tripod.
+struct TrackedView {
+  std::optional<IcpResult> best;  // the accepted result, or the best rejected one
+  std::string initialisation;
+  std::optional<Isometry3d> T_world_camera_svd;  // when feature registration ran
+  std::optional<Isometry3d> T_world_camera_initial;  // the guess the accepted ICP began at
+  std::string failure;            // why nothing was accepted; empty when best is accepted
+};
+TrackedView register_tripod_view(const AlignmentState& s, const Target& model, std::size_t frame,
+                                 std::size_t piece);
 
 Eigen::Vector3d forward(const Isometry3d& T);
 double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b);

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <initializer_list>
 #include <numeric>
 
 namespace locard::alignment_detail {
@@ -18,24 +19,73 @@ Target make_target(PointCloud fine, double voxel_size) {
   return t;
 }
 
-// The colour gradients are fitted once per frame: only the last level is coloured.
-IcpResult refine(const PointCloud& source_fine, const PointCloud& source_coarse,
-                 const Target& target, const Isometry3d& init, const AlignmentOptions& o,
-                 IcpMethod method) {
-  const double v = o.voxel_size;
+namespace {
+
+IcpOptions plane_options(double voxel_size) {
   IcpOptions options;
   options.method = IcpMethod::PointToPlane;
   options.min_fitness = 0.0;  // acceptance is decided by the caller
-  options.normal_radius = 2.5 * v;
+  options.normal_radius = 2.5 * voxel_size;
+  return options;
+}
+
+IcpResult run_level(const PointCloud& source, const PointCloud& target,
+                    std::initializer_list<const IcpTarget*> prepared, const Isometry3d& init,
+                    const IcpOptions& options) {
+  for (const IcpTarget* p : prepared)
+    if (p && options.method == p->method()) return icp(source, *p, init, options);
+  return icp(source, target, init, options);
+}
+
+}  // namespace
+
+void prepare_for_icp(Target& target, double voxel_size, IcpMethod method) {
+  IcpOptions options = plane_options(voxel_size);
+  const std::size_t min_points = std::max<std::size_t>(options.min_points, 3);
+  if (target.coarse.size() >= min_points)
+    target.coarse_icp = std::make_shared<const IcpTarget>(target.coarse, options);
+  if (target.fine.size() < min_points) return;
+  target.fine_icp = std::make_shared<const IcpTarget>(target.fine, options);
+  if (method == IcpMethod::Colored && target.fine.has_colors()) {
+    options.method = IcpMethod::Colored;
+    options.max_correspondence_distance = voxel_size;  // refine()'s last level: its gradients
+    target.fine_colored_icp = std::make_shared<const IcpTarget>(target.fine, options);
+  }
+}
+
+IcpResult screen(const PointCloud& source_coarse, const Target& target, const Isometry3d& init,
+                 const AlignmentOptions& o, const std::optional<IcpPosePrior>& prior) {
+  IcpOptions options = plane_options(o.voxel_size);
+  options.pose_prior = prior;
+  options.max_correspondence_distance = 5.0 * o.voxel_size;
+  options.convergence.max_iterations = 10;
+  if (source_coarse.size() < options.min_points || target.coarse.size() < options.min_points) {
+    IcpResult r;
+    r.reason = "too few points";
+    return r;
+  }
+  return run_level(source_coarse, target.coarse, {target.coarse_icp.get()}, init, options);
+}
+
+// The colour gradients are fitted once per frame: only the last level is coloured.
+IcpResult refine(const PointCloud& source_fine, const PointCloud& source_coarse,
+                 const Target& target, const Isometry3d& init, const AlignmentOptions& o,
+                 IcpMethod method, const std::optional<IcpPosePrior>& prior) {
+  const double v = o.voxel_size;
+  IcpOptions options = plane_options(v);
+  options.pose_prior = prior;
   struct Level {
+    const IcpTarget* prepared;  // point to plane
+    const IcpTarget* colored;
     const PointCloud* source;
     const PointCloud* target;
     double gate;
     int iterations;
   };
-  const Level levels[3] = {{&source_coarse, &target.coarse, 4.0 * v, 30},
-                           {&source_fine, &target.fine, 2.0 * v, 20},
-                           {&source_fine, &target.fine, v, 15}};
+  const Level levels[3] = {
+      {target.coarse_icp.get(), nullptr, &source_coarse, &target.coarse, 4.0 * v, 30},
+      {target.fine_icp.get(), nullptr, &source_fine, &target.fine, 2.0 * v, 20},
+      {target.fine_icp.get(), target.fine_colored_icp.get(), &source_fine, &target.fine, v, 15}};
   Isometry3d T = init;
   IcpResult r;
   int iterations = 0;
@@ -51,7 +101,8 @@ IcpResult refine(const PointCloud& source_fine, const PointCloud& source_coarse,
       r.reason = fmt::format("level {}: too few points", level + 1);
       return r;
     }
-    r = icp(*levels[level].source, *levels[level].target, T, options);
+    r = run_level(*levels[level].source, *levels[level].target,
+                  {levels[level].prepared, levels[level].colored}, T, options);
     iterations += r.iterations;
     if (!r.success) {
       r.reason = fmt::format("level {} of 3: {}", level + 1, r.reason);
@@ -94,7 +145,7 @@ GlobalRegistrationResult features(const PointCloud& source, const PointCloud& ta
 }
 
 IcpMethod tracking_method(const AlignmentOptions& o) {
-  return o.mode == AlignmentMode::Odometry ? o.odometry_method : IcpMethod::PointToPlane;
+  return o.mode == AlignmentMode::Odometry ? o.odometry_method : o.tripod_method;
 }
 
 Eigen::Vector3d forward(const Isometry3d& T) { return T.linear().col(2); }

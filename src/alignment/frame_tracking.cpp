@@ -25,6 +25,7 @@ class TrackingModel {
       model_.fine.append(transformed(s_.prepared[i].cloud, s_.tracked_pose(i)));
       model_ = make_target(voxel_down_sample(model_.fine, static_cast<float>(o.voxel_size)).cloud,
                            o.voxel_size);
+      prepare_for_icp(model_, o.voxel_size, tracking_method(o));
       return;
     }
     keyframes_.push_back(i);
@@ -33,6 +34,7 @@ class TrackingModel {
     for (std::size_t k : keyframes_) m.append(transformed(s_.prepared[k].cloud, s_.tracked_pose(k)));
     model_ = make_target(voxel_down_sample(m, static_cast<float>(o.voxel_size)).cloud,
                          o.voxel_size);
+    prepare_for_icp(model_, o.voxel_size, tracking_method(o));
   }
 
  private:
@@ -55,6 +57,26 @@ void track_frames(AlignmentState& s) {
   bool piece_open = false;
   std::size_t failures = 0;
   std::size_t since_keyframe = 0;
+  const auto accept = [&](std::size_t i, const IcpResult& r, const std::string& init) {
+    FrameAlignment& f = s.result.frames[i];
+    f.status = FrameStatus::Registered;
+    f.T_world_camera_icp = r.T_target_source;
+    f.fitness = r.fitness;
+    f.inlier_rmse = r.inlier_rmse;
+    f.initialisation = init;
+    s.piece_of[i] = piece;
+    s.registered.push_back(i);
+    failures = 0;
+  };
+  const auto reject = [&](std::size_t i, const std::optional<IcpResult>& r,
+                          const std::string& why) {
+    FrameAlignment& f = s.result.frames[i];
+    f.status = FrameStatus::Failed;
+    f.reason = why;
+    f.fitness = r ? r->fitness : 0.0;
+    f.inlier_rmse = r ? r->inlier_rmse : 0.0;
+    if (++failures >= o.max_consecutive_failures) piece_open = false;
+  };
   for (std::size_t i = 0; i < s.n; ++i) {
     FrameAlignment& f = s.result.frames[i];
     if (o.progress) o.progress(i, s.n);
@@ -75,6 +97,20 @@ void track_frames(AlignmentState& s) {
       model.add(i);
       continue;
     }
+    if (o.mode == AlignmentMode::Cumulative) {
+      TrackedView view = register_tripod_view(s, model.target(), i, piece);
+      // The stage report's first stage is the pose ICP began at: the feature (SVD) pose when
+      // features won, else the tripod guess.
+      f.T_world_camera_svd = view.initialisation == "features" ? view.T_world_camera_svd
+                                                               : view.T_world_camera_initial;
+      if (view.failure.empty()) {
+        accept(i, *view.best, view.initialisation);
+        model.add(i);
+      } else {
+        reject(i, view.best, view.failure);
+      }
+      continue;
+    }
     const PointCloud& cloud = s.prepared[i].cloud;
     const std::size_t last = s.registered.back();
     const Isometry3d T_last = s.tracked_pose(last);
@@ -86,18 +122,13 @@ void track_frames(AlignmentState& s) {
         inits.emplace_back(g.ransac.T_target_source, "features");
       }
     };
-    if (o.mode == AlignmentMode::Cumulative) {
-      try_features();
-      inits.emplace_back(T_last, "previous pose");
-    } else {
-      Isometry3d prediction = T_last;
-      if (s.registered.size() >= 2 && s.piece_of[s.registered[s.registered.size() - 2]] == piece) {
-        const Isometry3d& T_prev = s.tracked_pose(s.registered[s.registered.size() - 2]);
-        prediction = T_last * (T_prev.inverse() * T_last);  // constant velocity
-      }
-      inits.emplace_back(prediction, "prediction");
-      inits.emplace_back(T_last, "previous pose");
+    Isometry3d prediction = T_last;
+    if (s.registered.size() >= 2 && s.piece_of[s.registered[s.registered.size() - 2]] == piece) {
+      const Isometry3d& T_prev = s.tracked_pose(s.registered[s.registered.size() - 2]);
+      prediction = T_last * (T_prev.inverse() * T_last);  // constant velocity
     }
+    inits.emplace_back(prediction, "prediction");
+    inits.emplace_back(T_last, "previous pose");
     std::optional<IcpResult> best;
     std::string best_init;
     const auto evaluate = [&](std::size_t from) {
@@ -107,35 +138,24 @@ void track_frames(AlignmentState& s) {
           best = std::move(r);
           best_init = inits[k].second;
         }
-        // Odometry: the prediction is good enough almost always; skip the other guesses.
-        if (o.mode == AlignmentMode::Odometry && acceptable(*best, o, o.min_fitness)) break;
+        // The prediction is good enough almost always; skip the other guesses.
+        if (acceptable(*best, o, o.min_fitness)) break;
       }
     };
     evaluate(0);
-    if (o.mode == AlignmentMode::Odometry && !acceptable(*best, o, o.min_fitness)) {
+    if (!acceptable(*best, o, o.min_fitness)) {
       const std::size_t from = inits.size();
       try_features();  // tracking lost: feature registration against the local model
       evaluate(from);
     }
     if (best && acceptable(*best, o, o.min_fitness)) {
-      f.status = FrameStatus::Registered;
-      f.T_world_camera_icp = best->T_target_source;
-      f.fitness = best->fitness;
-      f.inlier_rmse = best->inlier_rmse;
-      f.initialisation = best_init;
-      s.piece_of[i] = piece;
-      s.registered.push_back(i);
-      failures = 0;
-      if (o.mode == AlignmentMode::Cumulative || ++since_keyframe >= o.keyframe_interval) {
+      accept(i, *best, best_init);
+      if (++since_keyframe >= o.keyframe_interval) {
         since_keyframe = 0;
         model.add(i);
       }
     } else {
-      f.status = FrameStatus::Failed;
-      f.reason = best ? rejection(*best, o, o.min_fitness) : "no initial pose";
-      f.fitness = best ? best->fitness : 0.0;
-      f.inlier_rmse = best ? best->inlier_rmse : 0.0;
-      if (++failures >= o.max_consecutive_failures) piece_open = false;
+      reject(i, best, best ? rejection(*best, o, o.min_fitness) : "no initial pose");
     }
   }
   if (o.progress) o.progress(s.n, s.n);

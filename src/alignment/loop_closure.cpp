@@ -118,7 +118,9 @@ void verify_loops(AlignmentState& s) {
     LoopCandidate& c = s.candidates[k];
     const PointCloud& src = s.prepared[c.source].cloud;
     const PointCloud& src_coarse = s.prepared[c.source].coarse;
-    const Target tgt{s.prepared[c.target].cloud, s.prepared[c.target].coarse};
+    Target tgt;
+    tgt.fine = s.prepared[c.target].cloud;
+    tgt.coarse = s.prepared[c.target].coarse;
     std::optional<IcpResult> best;
     if (c.found_by == "proximity") best = refine(src, src_coarse, tgt, c.T_target_source, o, method);
     if (c.found_by == "features") {

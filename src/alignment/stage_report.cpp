@@ -255,7 +255,7 @@ std::string stage_report_svg(const AlignmentResult& result, const StageReport& r
     title = "Cumulative error per view after each stage";
     xlabel = "view (registered frames, in order)";
     ylabel = "translation error (mm)";
-    const char* labels[3] = {"after SVD", "after ICP", "after loop closure"};
+    const char* labels[3] = {"initial pose", "after ICP", "after loop closure"};
     const char* colors[3] = {"#d62728", "#1f77b4", "#2ca02c"};
     for (int s = 0; s < 3; ++s) {
       Series se{labels[s], colors[s], {}};

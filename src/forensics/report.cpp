@@ -287,8 +287,8 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
   h += "<h2 id=\"stage-errors\">Alignment error per stage (Fig. 4)</h2>\n";
   if (fs::exists(root / "alignment" / "stage_report.svg"))
     h += "<figure id=\"stage-plot\">" + svg_text(read_text(root / "alignment" / "stage_report.svg")) +
-         "<figcaption>Cumulative error of each view after SVD (feature alignment), ICP and loop "
-         "closure</figcaption></figure>\n";
+         "<figcaption>Cumulative error of each view at its initial pose (feature alignment by "
+         "SVD, or the tripod guess), after ICP and after loop closure</figcaption></figure>\n";
   if (case_json.contains("alignment") && case_json["alignment"].contains("stage_errors")) {
     h += "<table><tr><th>stage</th><th>views</th><th>mean error (mm)</th><th>max (mm)</th><th>ATE "
          "RMSE (mm)</th></tr>";

@@ -27,6 +27,7 @@ namespace {
 
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 using Vector6d = Eigen::Matrix<double, 6, 1>;
+constexpr double kDegToRad = std::numbers::pi / 180.0;
 
 // Fixed chunk of the deterministic reductions: the split tree depends only on the point
 // count, so the floating-point sums are the same for any thread count.
@@ -73,6 +74,19 @@ void check_options(const IcpOptions& o) {
   if (!(o.lambda_geometric >= 0.0 && o.lambda_geometric <= 1.0))
     bad(fmt::format("lambda_geometric must be in [0, 1], got {}", o.lambda_geometric));
   if (o.min_correspondences < 3) bad("min_correspondences must be at least 3");
+  if (const auto& p = o.pose_prior) {
+    if (o.method == IcpMethod::PointToPoint)
+      bad("a pose prior needs point-to-plane or coloured ICP (point-to-point is solved in "
+          "closed form)");
+    if (!p->T_target_source.matrix().allFinite()) bad("the pose prior has NaN/Inf entries");
+    const auto spread = [](double v) { return v >= 0.0 && std::isfinite(v); };
+    if (!spread(p->centre_sigma_m) || !spread(p->rotation_sigma_deg) ||
+        !(p->point_sigma_m > 0.0) || !std::isfinite(p->point_sigma_m) ||
+        (p->centre_sigma_m == 0.0 && p->rotation_sigma_deg == 0.0))
+      bad(fmt::format("the pose prior needs spreads >= 0 (not both 0) and a positive point "
+                      "spread, got centre {} m, rotation {} deg, point {} m",
+                      p->centre_sigma_m, p->rotation_sigma_deg, p->point_sigma_m));
+  }
 }
 
 void check_count(const char* which, std::size_t finite, std::size_t dropped,
@@ -412,14 +426,53 @@ Matrix6d full_hessian(const PassSums& s, IcpMethod method) {
   return H;
 }
 
+// The centre prior's share of the normal equations at T_c (icp.hpp, "Centre prior"), in the
+// centred frame: q0 is where the source origin lies now, p where the prior puts it.
+struct PriorTerm {
+  Matrix6d H = Matrix6d::Zero();
+  Vector6d b = Vector6d::Zero();
+};
+
+PriorTerm prior_term(const IcpPosePrior& prior, const Isometry3d& T_c,
+                     const Eigen::Vector3d& ct, const Eigen::Vector3d& cs,
+                     std::size_t correspondences) {
+  PriorTerm term;
+  const double scale = prior.per_correspondence ? static_cast<double>(correspondences) : 1.0;
+  if (prior.centre_sigma_m > 0.0) {
+    const Eigen::Vector3d q0 = T_c * (-cs);
+    const Eigen::Vector3d r = q0 - (prior.T_target_source.translation() - ct);
+    Eigen::Matrix<double, 3, 6> J;
+    J.leftCols<3>() = -skew(q0);
+    J.rightCols<3>() = Eigen::Matrix3d::Identity();
+    const double w = scale * std::pow(prior.point_sigma_m / prior.centre_sigma_m, 2);
+    term.H += w * J.transpose() * J;
+    term.b += w * J.transpose() * r;
+  }
+  if (prior.rotation_sigma_deg > 0.0) {
+    const Eigen::AngleAxisd d(T_c.linear() * prior.T_target_source.linear().transpose());
+    const Eigen::Vector3d r = d.angle() * d.axis();
+    const double w =
+        scale * std::pow(prior.point_sigma_m / (prior.rotation_sigma_deg * kDegToRad), 2);
+    term.H.topLeftCorner<3, 3>() += w * Eigen::Matrix3d::Identity();
+    term.b.head<3>() += w * r;
+  }
+  return term;
+}
+
 // The update dT from one pass (see icp.hpp), or an error message.
-std::optional<Isometry3d> solve_step(const PassSums& s, IcpMethod method, std::string& why) {
+std::optional<Isometry3d> solve_step(const PassSums& s, IcpMethod method, const PriorTerm* prior,
+                                     std::string& why) {
   if (method == IcpMethod::PointToPoint) {
     const auto dT = s.kabsch.solve();
     if (!dT) why = "the correspondences are degenerate (collinear or all weights zero)";
     return dT;
   }
-  const Matrix6d H = full_hessian(s, method);
+  Matrix6d H = full_hessian(s, method);
+  Vector6d b = s.b;
+  if (prior) {
+    H += prior->H;
+    b += prior->b;
+  }
   // A (numerically) singular H means the geometry leaves a motion unconstrained (a plane
   // against a plane, a cylinder along its axis): the step would be arbitrary, so say so.
   const Eigen::SelfAdjointEigenSolver<Matrix6d> eig(H, Eigen::EigenvaluesOnly);
@@ -431,7 +484,7 @@ std::optional<Isometry3d> solve_step(const PassSums& s, IcpMethod method, std::s
         lmin, lmax);
     return std::nullopt;
   }
-  const Vector6d xi = H.ldlt().solve(-s.b);
+  const Vector6d xi = H.ldlt().solve(-b);
   if (!xi.allFinite()) {
     why = "the Gauss-Newton step is not finite";
     return std::nullopt;
@@ -517,7 +570,9 @@ IcpResult run_icp(const PreparedSource& source, const PreparedTarget& target,
       break;
     }
     std::string why;
-    const auto dT = solve_step(sums, o.method, why);
+    std::optional<PriorTerm> prior;
+    if (o.pose_prior) prior = prior_term(*o.pose_prior, T_c, target.centroid, source.centroid, sums.count);
+    const auto dT = solve_step(sums, o.method, prior ? &*prior : nullptr, why);
     if (!dT) {
       result.T_target_source = from_centred(T_c, target.centroid, source.centroid);
       result.fitness = fit;
@@ -590,23 +645,63 @@ std::optional<IcpMethod> parse_icp_method(std::string_view name) {
   return std::nullopt;
 }
 
-IcpResult icp(const PointCloud& source, const PointCloud& target,
-              const Isometry3d& init_T_target_source, const IcpOptions& options) {
+namespace {
+
+void check_inputs(const PointCloud& source, bool target_has_colors,
+                  const Isometry3d& init_T_target_source, const IcpOptions& options) {
   check_options(options);
   if (!init_T_target_source.matrix().allFinite())
     throw InputError("ICP: the initial transform has NaN/Inf entries");
-  if (options.method == IcpMethod::Colored && (!source.has_colors() || !target.has_colors()))
+  if (options.method == IcpMethod::Colored && (!source.has_colors() || !target_has_colors))
     throw InputError(fmt::format(
         "coloured ICP needs colours on both clouds; the {} has none (use point-to-plane)",
-        !source.has_colors() ? (!target.has_colors() ? "source and the target" : "source")
+        !source.has_colors() ? (!target_has_colors ? "source and the target" : "source")
                              : "target"));
-  const PreparedTarget target_prepared = prepare_target(target, options);
+}
+
+IcpResult run_single(const PointCloud& source, const PreparedTarget& target,
+                     const Isometry3d& init_T_target_source, const IcpOptions& options) {
   const PreparedSource source_prepared = prepare_source(source, options);
-  IcpResult result = run_icp(source_prepared, target_prepared, init_T_target_source, options);
+  IcpResult result = run_icp(source_prepared, target, init_T_target_source, options);
   result.levels.push_back({0.0, options.max_correspondence_distance, result.source_points,
                            result.target_points, result.iterations, result.converged,
                            result.fitness, result.inlier_rmse});
   return result;
+}
+
+}  // namespace
+
+IcpResult icp(const PointCloud& source, const PointCloud& target,
+              const Isometry3d& init_T_target_source, const IcpOptions& options) {
+  check_inputs(source, target.has_colors(), init_T_target_source, options);
+  return run_single(source, prepare_target(target, options), init_T_target_source, options);
+}
+
+struct IcpTarget::Prepared {
+  PreparedTarget target;
+  IcpMethod method;
+  bool has_colors;
+};
+
+IcpTarget::IcpTarget(const PointCloud& target, const IcpOptions& options) {
+  check_options(options);
+  if (options.method == IcpMethod::Colored && !target.has_colors())
+    throw InputError("coloured ICP needs colours on both clouds; the target has none (use "
+                     "point-to-plane)");
+  prepared_ = std::make_shared<const Prepared>(
+      Prepared{prepare_target(target, options), options.method, target.has_colors()});
+}
+
+IcpMethod IcpTarget::method() const { return prepared_->method; }
+std::size_t IcpTarget::size() const { return prepared_->target.tree.size(); }
+
+IcpResult icp(const PointCloud& source, const IcpTarget& target,
+              const Isometry3d& init_T_target_source, const IcpOptions& options) {
+  if (options.method != target.method())
+    throw InputError(fmt::format("ICP: the target was prepared for {} but the options ask for {}",
+                                 to_string(target.method()), to_string(options.method)));
+  check_inputs(source, target.prepared_->has_colors, init_T_target_source, options);
+  return run_single(source, target.prepared_->target, init_T_target_source, options);
 }
 
 IcpResult icp_multiscale(const PointCloud& source, const PointCloud& target,

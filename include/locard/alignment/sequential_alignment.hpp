@@ -6,11 +6,19 @@
 //     (depth all zero, covered lens) is reported by index and left out.
 //  2. Sequential registration, each frame against a world-frame model of frames already
 //     registered (voxel grid of voxel_size, normals averaged per voxel):
-//       cumulative  the model holds every registered frame (the paper's scheme). The initial
-//                   pose is feature-based: FPFH + RANSAC + SVD (global_registration.hpp) of the
-//                   frame against the model ("after SVD"); ICP refines it ("after ICP"). The
-//                   previous frame's pose is tried as a second initial guess and the ICP result
-//                   with the higher fitness (then lower RMSE) wins.
+//       cumulative  the model holds every registered frame (the paper's scheme) of a tripod
+//                   turn: one pan axis through a fixed centre. The initial poses are the
+//                   previous pose turned about the pan axis (estimated from the steps so far)
+//                   by the last step and by every tripod_sweep_step_deg up to
+//                   max_tripod_step_deg either way, screened by a short coarse ICP; the best
+//                   few are refined by the full ICP. Where a pitch ring starts (ring_sizes),
+//                   or the turn alone finds nothing, tilts about the horizontal axis up to
+//                   max_tripod_tilt_deg are added, and then feature registration (FPFH +
+//                   RANSAC + SVD, "after SVD"). A result whose camera leaves the tripod
+//                   (view_check.max_tripod_offset_m from the centre) or turns further than a
+//                   step allows is rejected: a symmetric room fits itself turned by 90 or 180
+//                   degrees, and only the tripod tells those poses apart. Among the rest the
+//                   higher fitness (then lower RMSE) wins.
 //       odometry    frame-to-local-model tracking for long video: the model holds the last
 //                   `local_model_frames` keyframes; the initial guess is the constant-velocity
 //                   prediction, refined by coloured ICP (Park et al. 2017: photometric +
@@ -121,8 +129,18 @@ struct AlignmentOptions {
   ViewCheckOptions view_check;
   double min_verified_share = 0.9;
   // Tripod turn: views per pitch ring in capture order (SequenceTraits::ring_sizes); empty
-  // when unknown. Used to propose ring-closure and ring-to-ring loop candidates.
+  // when unknown. A ring's first view is searched with tilts as well as turns.
   std::vector<std::size_t> ring_sizes;
+  // Tripod tracking (cumulative mode, step 2): the widest turn between consecutive views
+  // (wider than the field of view leaves no overlap), the spacing of the turns tried, and the
+  // widest tilt tried where a ring starts.
+  // The method of the last ICP level of tripod tracking: coloured where colour is registered
+  // to depth (a textured bare wall still fixes the turn), else point to plane.
+  IcpMethod tripod_method = IcpMethod::PointToPlane;
+  double max_tripod_step_deg = 60.0;
+  double tripod_sweep_step_deg = 5.0;
+  double max_tripod_tilt_deg = 60.0;
+  std::size_t tripod_refined_guesses = 3;  // screened guesses refined by the full ICP
   std::uint64_t seed = 0;
   ProgressCallback progress;  // (frames done, frames total) over stage 2
 };
@@ -152,12 +170,16 @@ struct FrameAlignment {
   std::string reason;              // why not registered; empty when registered
   std::size_t piece = 0;           // which connected piece (after loop closure)
   std::size_t points = 0;          // after the voxel grid
-  std::optional<Isometry3d> T_world_camera_svd;    // after feature alignment (when run)
+  // Before ICP: the feature alignment (SVD) pose, or in tripod tracking the turn or tilt
+  // guess the accepted ICP began at ("initial pose" in the stage report).
+  std::optional<Isometry3d> T_world_camera_svd;
   std::optional<Isometry3d> T_world_camera_icp;    // after ICP (registered frames)
   std::optional<Isometry3d> T_world_camera_final;  // after loop closure
   double fitness = 0.0;
   double inlier_rmse = 0.0;
-  std::string initialisation;      // "features", "previous pose", "prediction", "first frame"
+  // "first frame", "tripod turn", "tripod tilt", "features" (cumulative);
+  // "prediction", "previous pose", "features" (odometry)
+  std::string initialisation;
   ViewCheck check;                 // registered frames only
   // Registered and (when verification ran) verified: the frames fused and measured.
   bool trusted() const {

@@ -35,6 +35,20 @@
 // Sums are parallel (oneTBB parallel_deterministic_reduce with a fixed grain), so the result
 // is bit-for-bit the same for any thread count.
 //
+// Pose prior (optional, point-to-plane and coloured). A Gaussian prior on where the source
+// frame's origin - the camera centre of a camera-frame cloud - lies in the target frame and on
+// the rotation, as a tripod gives: with q0 = T_c (0 - c_s) the origin's current place,
+// p = prior centre - c_t, R the current and R_p the prior rotation,
+//   centre    r_c = q0 - p,          J_c = [-[q0]x  I],  w_c = (point_sigma / centre_sigma)^2
+//   rotation  r_R = log(R R_p^T),    J_R = [I  0],       w_R = (point_sigma / rotation_sigma)^2
+// (rotation_sigma in radians; J_R is first order, as the left perturbation itself). Each
+// prior counts like one correspondence of residual spread point_sigma - or, with
+// per_correspondence, like every correspondence of the pass (w times their count: a prior as
+// sure as the data, for a constraint that is physical, such as a tripod). Either way it leaves
+// alone what the geometry fixes firmly and decides a direction the geometry leaves free (a bare
+// wall's slide and its turn about its normal) or only half fixes (a periodic texture). H += w J^T J and b += w J^T r join the sums before the solve;
+// fitness, RMSE and the information matrix stay those of the data alone.
+//
 // Stopping. After each update: converged when the step is below rotation_eps_deg AND
 // translation_eps_m, or (Open3D's criteria) when fitness and inlier RMSE changed by less than
 // relative_fitness and relative_rmse since the previous iteration; otherwise stop after
@@ -64,6 +78,7 @@
 #include <Eigen/Core>
 
 #include <cstddef>
+#include <memory>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -85,6 +100,14 @@ struct IcpConvergence {
   double relative_rmse = 1e-6;      // ... and |RMSE change| below this: converged
 };
 
+struct IcpPosePrior {
+  Isometry3d T_target_source = Isometry3d::Identity();  // the prior pose
+  double centre_sigma_m = 0.05;     // spread of the source origin's place; 0: not used
+  double rotation_sigma_deg = 5.0;  // spread of the rotation; 0: not used
+  double point_sigma_m = 0.01;      // spread of one correspondence's residual
+  bool per_correspondence = false;  // weight times the pass's correspondences
+};
+
 struct IcpOptions {
   IcpMethod method = IcpMethod::PointToPlane;
   double max_correspondence_distance = 0.05;  // metres (not squared)
@@ -104,6 +127,8 @@ struct IcpOptions {
   double min_fitness = 0.1;
   std::size_t min_correspondences = 6;
   std::size_t min_points = 6;  // per cloud, after dropping non-finite points; else InputError
+  // Where the source should lie (see "Pose prior"); point-to-point: InputError.
+  std::optional<IcpPosePrior> pose_prior;
 };
 
 // One level of a coarse-to-fine schedule: both clouds are voxel-down-sampled to voxel_size
@@ -147,6 +172,29 @@ struct IcpResult {
 
 // Refines init_T_target_source. Throws InputError for unusable input (see above).
 IcpResult icp(const PointCloud& source, const PointCloud& target,
+              const Isometry3d& init_T_target_source, const IcpOptions& options);
+
+// A target prepared once - finite points, kd-tree, normals, colour gradients - for many ICP
+// runs against it (several initial guesses, several sources): the preparation is most of the
+// cost of a short run against a large model. It is bound to the method it was prepared for
+// and, for coloured ICP, to the gradient radius of those options. Copies share the data.
+class IcpTarget {
+ public:
+  // Throws InputError as icp() does for a target it cannot use.
+  IcpTarget(const PointCloud& target, const IcpOptions& options);
+  IcpMethod method() const;
+  std::size_t size() const;  // finite points kept
+
+ private:
+  struct Prepared;
+  std::shared_ptr<const Prepared> prepared_;
+  friend IcpResult icp(const PointCloud& source, const IcpTarget& target,
+                       const Isometry3d& init_T_target_source, const IcpOptions& options);
+};
+
+// icp() against a prepared target; options.method must be the target's method (InputError
+// otherwise). The result is the same as icp() with the target's cloud.
+IcpResult icp(const PointCloud& source, const IcpTarget& target,
               const Isometry3d& init_T_target_source, const IcpOptions& options);
 
 // Coarse to fine over `scales` (each level starts from the previous level's estimate). The

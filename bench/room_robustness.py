@@ -1,0 +1,161 @@
+#!/usr/bin/python3
+"""Alignment robustness over generated rooms (issue 13).
+
+For each seed: `locard scan-sim --random SEED` draws a room, its objects, a tripod scan and a
+sensor; `locard align` aligns it; the result is compared view by view with the simulator's
+exact poses. A view is
+  good     registered, verified, and within 0.5 deg / 1 cm of the truth (relative to view 0
+           after the best rigid fit of all registered views, rotation by chordal mean),
+  flagged  registered but flagged by the self-check, or not registered (reported by index),
+  silent   registered, verified, and more than 2 deg or 5 cm off: the failure that must not
+           happen, a wrong view that claims to be right.
+A room succeeds when align exits 0 (>= 90 % of views verified), ATE <= 3 mm and every
+verified view is good.
+
+  /usr/bin/python3 bench/room_robustness.py --locard build/release/locard --seeds 1-50 \
+      [--sensor kinect_v1|kinect_v2] [--surfaces plain|textured] [--work DIR] [--json OUT]
+
+Prints one line per room and a summary; the work folder is removed unless --keep.
+"""
+import argparse
+import json
+import os
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+import numpy as np
+
+
+def quat_to_matrix(q):
+    x, y, z, w = q
+    return np.array([
+        [1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+        [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+        [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+
+
+def load_tum(path):
+    poses = {}
+    with open(path) as f:
+        for line in f:
+            if line.startswith('#') or not line.strip():
+                continue
+            v = [float(x) for x in line.split()]
+            T = np.eye(4)
+            T[:3, :3] = quat_to_matrix(v[4:8])
+            T[:3, 3] = v[1:4]
+            poses[round(v[0], 4)] = T
+    return poses
+
+
+def rotation_deg(R):
+    return float(np.degrees(np.arccos(np.clip((np.trace(R) - 1) / 2, -1, 1))))
+
+
+def evaluate(scan, out):
+    truth = load_tum(os.path.join(scan, 'groundtruth.txt'))
+    report = json.load(open(os.path.join(out, 'stage_report.json')))
+    views = []
+    for f in report['frames']:
+        T = None
+        if f['status'] == 'registered' and 'T_world_camera' in f:
+            T = np.eye(4)
+            T[:3, :] = np.array(f['T_world_camera'])
+        views.append((f, T, truth[round(f['timestamp'], 4)]))
+    placed = [(f, T, G) for f, T, G in views if T is not None]
+    result = {'views': len(views), 'registered': len(placed), 'good': 0, 'flagged': 0,
+              'silent': 0, 'ate_mm': float('nan'), 'worst_deg': 0.0, 'worst_mm': 0.0}
+    result['flagged'] = sum(1 for f, T, _ in views if T is None or not f.get('verified'))
+    if len(placed) < 2:
+        return result
+    # Best rigid fit estimate -> truth: rotation by the chordal mean, then translation.
+    M = sum(G[:3, :3] @ T[:3, :3].T for _, T, G in placed)
+    U, _, Vt = np.linalg.svd(M)
+    R = U @ np.diag([1, 1, np.linalg.det(U @ Vt)]) @ Vt
+    t = np.mean([G[:3, 3] - R @ T[:3, 3] for _, T, G in placed], axis=0)
+    errors = []
+    for f, T, G in placed:
+        dt = float(np.linalg.norm(R @ T[:3, 3] + t - G[:3, 3])) * 1000
+        dr = rotation_deg(G[:3, :3].T @ (R @ T[:3, :3]))
+        errors.append(dt)
+        if not f.get('verified'):
+            continue
+        result['worst_mm'] = max(result['worst_mm'], dt)
+        result['worst_deg'] = max(result['worst_deg'], dr)
+        if dt <= 10 and dr <= 0.5:
+            result['good'] += 1
+        elif dt > 50 or dr > 2:
+            result['silent'] += 1
+    result['ate_mm'] = float(np.sqrt(np.mean(np.square(errors))))
+    return result
+
+
+def seeds_of(text):
+    seeds = []
+    for part in text.split(','):
+        a, _, b = part.partition('-')
+        seeds += list(range(int(a), int(b or a) + 1))
+    return seeds
+
+
+def main():
+    p = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+    p.add_argument('--locard', default='build/release/locard')
+    p.add_argument('--seeds', default='1-50')
+    p.add_argument('--sensor', choices=['kinect_v1', 'kinect_v2'])
+    p.add_argument('--surfaces', choices=['plain', 'textured'])
+    p.add_argument('--work')
+    p.add_argument('--json')
+    p.add_argument('--keep', action='store_true')
+    a = p.parse_args()
+    work = a.work or tempfile.mkdtemp(prefix='locard-rooms-')
+    os.makedirs(work, exist_ok=True)
+    rows = []
+    for seed in seeds_of(a.seeds):
+        scan, out = os.path.join(work, f'{seed}-scan'), os.path.join(work, f'{seed}-aligned')
+        shutil.rmtree(scan, ignore_errors=True)
+        shutil.rmtree(out, ignore_errors=True)
+        sim = [a.locard, '--quiet', 'scan-sim', '--random', str(seed), '-o', scan]
+        if a.sensor:
+            sim += ['--sensor', a.sensor]
+        if a.surfaces:
+            sim += ['--surfaces', a.surfaces]
+        subprocess.run(sim, check=True, stdout=subprocess.DEVNULL)
+        start = time.monotonic()
+        r = subprocess.run([a.locard, '--quiet', 'align', scan, '-o', out],
+                           capture_output=True, text=True)
+        seconds = time.monotonic() - start
+        if r.returncode not in (0, 4):
+            sys.exit(f'seed {seed}: align exited {r.returncode}\n{r.stderr}')
+        row = evaluate(scan, out)
+        capture = json.load(open(os.path.join(scan, 'capture.json')))
+        row.update(seed=seed, exit=r.returncode, seconds=round(seconds, 1),
+                   sensor=capture.get('sensor'), rings=capture.get('ring_sizes'))
+        row['success'] = (r.returncode == 0 and row['ate_mm'] <= 3.0 and
+                          row['good'] == row['views'] - row['flagged'])
+        rows.append(row)
+        print(f"seed {seed:3d} {row['sensor']:9s} rings {str(row['rings']):14s} exit {r.returncode} "
+              f"{'OK  ' if row['success'] else 'FAIL'} ATE {row['ate_mm']:8.2f} mm  "
+              f"verified-worst {row['worst_mm']:7.1f} mm {row['worst_deg']:6.2f} deg  "
+              f"flagged {row['flagged']:3d}/{row['views']:3d}  silent {row['silent']:3d}  "
+              f"{seconds:5.1f} s", flush=True)
+        if not a.keep:
+            shutil.rmtree(scan, ignore_errors=True)
+            shutil.rmtree(out, ignore_errors=True)
+    ok = sum(r['success'] for r in rows)
+    silent_rooms = sum(1 for r in rows if r['silent'])
+    silent_views = sum(r['silent'] for r in rows)
+    print(f"SUMMARY rooms {len(rows)} succeeded {ok} | rooms with a silent wrong view "
+          f"{silent_rooms} ({silent_views} views) | exit 4 {sum(r['exit'] == 4 for r in rows)} | "
+          f"median time {np.median([r['seconds'] for r in rows]):.1f} s")
+    if a.json:
+        json.dump(rows, open(a.json, 'w'), indent=1)
+    if not a.keep and not a.work:
+        shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,436 @@
+// Tripod tracking, stage 2 of align_sequence in cumulative mode (sequential_alignment.hpp).
+//
+// A tripod turn moves the camera on one pan axis through a fixed centre, so the next view is
+// the previous one turned about that axis by a step narrower than the field of view, and
+// tilted only where a pitch ring starts. The search follows that motion instead of trusting
+// feature matches, which in a symmetric room (a rectangle fits itself turned by 180 degrees)
+// happily return a pose on the far side of the tripod:
+//   1. guesses: the previous pose turned by the last step (the prediction) and by every
+//      tripod_sweep_step_deg within +-max_tripod_step_deg; before the pan axis is known (the
+//      first step) the axis is searched too, from the camera's up axis tilted forwards and
+//      back, as the camera may look up or down;
+//   2. each guess is screened by a short coarse ICP; the fittest few that still respect the
+//      tripod are refined by the full ICP (refine());
+//   3. where a ring starts, or the turn alone finds nothing, tilts about the horizontal axis
+//      are added (from the previous view and from the previous ring's first view), and then
+//      feature registration; every result is held to the tripod all the same.
+#include "alignment/alignment_stages.hpp"
+
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <utility>
+
+namespace locard::alignment_detail {
+namespace {
+
+constexpr double kDeg = M_PI / 180.0;
+// Once the turn has a direction, a view may lie at most this far back: a pose further back
+// lands on what the model already covers, and fits it better than the true pose at the
+// model's edge does, so fitness alone would walk the turn backwards.
+constexpr double kMaxBackTurnDeg = 10.0;
+constexpr double kTripodCentreSigmaM = 0.03;
+// Between consecutive views the camera centre moves by tripod play and the nodal offset's
+// turn (the prediction follows the offset once its pivot is fitted): a few centimetres.
+constexpr double kMaxCentreStepM = 0.10;
+constexpr double kMaxDataSlideM = 0.02;
+// ICP that turns further than this from its guess has left the guess's basin: the guesses
+// are a few degrees apart, so the right pose is always near one of them.
+constexpr double kMaxWanderDeg = 10.0;
+constexpr double kGuessRotationSigmaDeg = 5.0;
+
+// What the registered views of the piece so far say about the tripod.
+struct TripodMotion {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // median camera centre
+  std::optional<Eigen::Vector3d> pan_axis;           // world frame; unknown before a turn
+  double last_step_rad = 0.0;                        // signed, about pan_axis
+  // The camera centre turns with the camera about the tripod's pivot (a nodal offset):
+  // c = pivot + R R_last^T (c_last - pivot). Without a fitted pivot, c = c_last.
+  Isometry3d T_last = Isometry3d::Identity();
+  std::optional<Eigen::Vector3d> pivot;
+  Eigen::Vector3d predicted_centre(const Isometry3d& T) const {
+    if (!pivot) return T_last.translation();
+    return *pivot + T.linear() * T_last.linear().transpose() * (T_last.translation() - *pivot);
+  }
+};
+
+struct Guess {
+  Isometry3d T;
+  const char* label;
+};
+
+double median(std::vector<double> v) {
+  const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+  std::nth_element(v.begin(), mid, v.end());
+  return *mid;
+}
+
+Isometry3d turned(const Isometry3d& T, const Eigen::Vector3d& axis, double angle_rad) {
+  Isometry3d out = T;
+  out.linear() = Eigen::AngleAxisd(angle_rad, axis).toRotationMatrix() * T.linear();
+  return out;
+}
+
+// Frames of the piece in registration order.
+std::vector<std::size_t> piece_views(const AlignmentState& s, std::size_t piece) {
+  std::vector<std::size_t> views;
+  for (std::size_t f : s.registered)
+    if (s.piece_of[f] == piece) views.push_back(f);
+  return views;
+}
+
+// The first view of each ring (indices into the frames used), from ring_sizes.
+std::vector<std::size_t> ring_starts(const AlignmentOptions& o) {
+  std::vector<std::size_t> starts;
+  std::size_t at = 0;
+  for (std::size_t size : o.ring_sizes) {
+    if (at >= o.first_frame) starts.push_back(at - o.first_frame);
+    at += size;
+  }
+  return starts;
+}
+
+// The pivot P with c_k - P = R_k R_0^T (c_0 - P) for every view k, by least squares:
+// (I - R_k R_0^T) P = c_k - R_k R_0^T c_0. Needs turns about two axes or more than a small
+// turn about one (the pivot's place along the pan axis is then fixed by the smallest-norm
+// part, which the camera centre's height does not depend on); none when the turn is short.
+std::optional<Eigen::Vector3d> fitted_pivot(const AlignmentState& s,
+                                            const std::vector<std::size_t>& views) {
+  const Isometry3d& T0 = s.tracked_pose(views.front());
+  Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
+  Eigen::Vector3d Atb = Eigen::Vector3d::Zero();
+  double widest = 0.0;
+  for (std::size_t f : views) {
+    const Isometry3d& T = s.tracked_pose(f);
+    const Eigen::Matrix3d R = T.linear() * T0.linear().transpose();
+    widest = std::max(widest, Eigen::AngleAxisd(R).angle());
+    const Eigen::Matrix3d A = Eigen::Matrix3d::Identity() - R;
+    AtA += A.transpose() * A;
+    Atb += A.transpose() * (T.translation() - R * T0.translation());
+  }
+  if (widest < 20.0 * kDeg) return std::nullopt;
+  // Pseudo-inverse: the direction along the pan axis is unobservable from the turn alone.
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(AtA);
+  Eigen::Vector3d P = Eigen::Vector3d::Zero();
+  const double top = eig.eigenvalues()(2);
+  for (int k = 0; k < 3; ++k) {
+    const double l = eig.eigenvalues()(k);
+    if (l > 1e-6 * top) P += eig.eigenvectors().col(k) * (eig.eigenvectors().col(k).dot(Atb) / l);
+  }
+  // The unobservable part: put it at the camera centre's own height on the axis.
+  for (int k = 0; k < 3; ++k) {
+    const double l = eig.eigenvalues()(k);
+    if (l <= 1e-6 * top) {
+      const Eigen::Vector3d u = eig.eigenvectors().col(k);
+      P += u * u.dot(T0.translation() - P);
+    }
+  }
+  if (!P.allFinite() || (P - T0.translation()).norm() > s.options.view_check.max_tripod_offset_m)
+    return std::nullopt;
+  return P;
+}
+
+// Pan axis: the angle-weighted mean of the step axes that agree with the first clear step
+// (a ring change tilts about another axis and is left out), signed so the turn is positive.
+TripodMotion tripod_motion(const AlignmentState& s, const std::vector<std::size_t>& views) {
+  TripodMotion m;
+  std::vector<double> c[3];
+  for (std::size_t f : views)
+    for (int k = 0; k < 3; ++k) c[k].push_back(s.tracked_pose(f).translation()(k));
+  for (int k = 0; k < 3; ++k) m.centre(k) = median(c[k]);
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (std::size_t k = 1; k < views.size(); ++k) {
+    const Eigen::Matrix3d R = s.tracked_pose(views[k]).linear() *
+                              s.tracked_pose(views[k - 1]).linear().transpose();
+    const Eigen::AngleAxisd step(R);
+    if (step.angle() < 2.0 * kDeg) continue;
+    Eigen::Vector3d axis = step.axis();
+    if (sum.squaredNorm() > 0.0) {
+      const Eigen::Vector3d mean = sum.normalized();
+      if (axis.dot(mean) < 0.0) axis = -axis;
+      if (axis.dot(mean) < std::cos(30.0 * kDeg)) continue;
+    }
+    sum += step.angle() * axis;
+  }
+  m.T_last = s.tracked_pose(views.back());
+  m.pivot = fitted_pivot(s, views);
+  if (sum.norm() < 2.0 * kDeg) return m;
+  m.pan_axis = sum.normalized();
+  if (views.size() >= 2) {
+    const Eigen::AngleAxisd last(s.tracked_pose(views.back()).linear() *
+                                 s.tracked_pose(views[views.size() - 2]).linear().transpose());
+    const double along = last.axis().dot(*m.pan_axis);
+    if (std::abs(along) > std::cos(30.0 * kDeg)) m.last_step_rad = last.angle() * along;
+  }
+  return m;
+}
+
+// Turns of `base` about the pan axis (or, before it is known, about the camera's up axis
+// tilted by up to +-40 degrees towards its forward axis).
+void add_turns(std::vector<Guess>& guesses, const Isometry3d& base, const TripodMotion& m,
+               const AlignmentOptions& o) {
+  std::vector<Eigen::Vector3d> axes;
+  if (m.pan_axis) {
+    axes.push_back(*m.pan_axis);
+  } else {
+    const Eigen::Vector3d up = -base.linear().col(1), ahead = base.linear().col(2);
+    for (double tilt = -40.0; tilt <= 40.0; tilt += 20.0)
+      axes.push_back(std::cos(tilt * kDeg) * up + std::sin(tilt * kDeg) * ahead);
+  }
+  const double step = std::max(o.tripod_sweep_step_deg, 0.5);
+  const double from = m.pan_axis ? -kMaxBackTurnDeg : -o.max_tripod_step_deg;
+  for (const Eigen::Vector3d& axis : axes)
+    for (double a = from; a <= o.max_tripod_step_deg + 1e-9; a += step)
+      guesses.push_back({turned(base, axis, a * kDeg), "tripod turn"});
+}
+
+// Tilts of `base` about its horizontal axis, each with a few turns about the pan axis.
+void add_tilts(std::vector<Guess>& guesses, const Isometry3d& base, const TripodMotion& m,
+               const AlignmentOptions& o) {
+  const Eigen::Vector3d up = m.pan_axis ? *m.pan_axis : Eigen::Vector3d(-base.linear().col(1));
+  Eigen::Vector3d side = up.cross(base.linear().col(2));
+  if (side.norm() < 1e-6) side = base.linear().col(0);
+  side.normalize();
+  const double tilt_step = 2.0 * std::max(o.tripod_sweep_step_deg, 0.5);
+  const double turn_step = 3.0 * std::max(o.tripod_sweep_step_deg, 0.5);
+  for (double tilt = -o.max_tripod_tilt_deg; tilt <= o.max_tripod_tilt_deg + 1e-9;
+       tilt += tilt_step)
+    for (double turn = -2.0 * turn_step; turn <= 2.0 * turn_step + 1e-9; turn += turn_step)
+      guesses.push_back({turned(turned(base, side, tilt * kDeg), up, turn * kDeg), "tripod tilt"});
+}
+
+// Why a pose breaks the tripod, or an empty string.
+std::string tripod_violation(const Isometry3d& T, const Isometry3d& T_last, const TripodMotion& m,
+                             const AlignmentOptions& o, double max_turn_deg,
+                             bool direction_known) {
+  const double offset = (T.translation() - m.centre).norm();
+  if (offset > o.view_check.max_tripod_offset_m)
+    return fmt::format("camera {:.2f} m from the tripod's centre (allowed {:.2f} m)", offset,
+                       o.view_check.max_tripod_offset_m);
+  const double moved = (T.translation() - m.predicted_centre(T)).norm();
+  if (moved > kMaxCentreStepM)
+    return fmt::format("camera moved {:.2f} m on the tripod since the previous view (at most "
+                       "{:.2f})",
+                       moved, kMaxCentreStepM);
+  const double turn = rotation_difference_deg(T_last, T);
+  if (turn > max_turn_deg)
+    return fmt::format("turned {:.1f} deg from the previous view (at most {:.0f})", turn,
+                       max_turn_deg);
+  if (direction_known && m.pan_axis) {
+    const Eigen::AngleAxisd step(T.linear() * T_last.linear().transpose());
+    const double signed_turn = step.angle() * step.axis().dot(*m.pan_axis) / kDeg;
+    if (signed_turn < -kMaxBackTurnDeg)
+      return fmt::format("turned {:.1f} deg back against the turn (at most {:.0f})", -signed_turn,
+                         kMaxBackTurnDeg);
+  }
+  return {};
+}
+
+struct Candidate {
+  IcpResult result;
+  const char* label;
+};
+
+// The tripod holds the camera centre (a nodal offset moves it by centimetres) and allows no
+// roll. A light prior (one correspondence's worth) only makes an exactly free direction
+// solvable and leaves the data's optimum alone, which a firm one would bias towards the
+// predicted centre by a share of the camera's real movement (tripod play, nodal offset). The
+// firm prior (as sure as the data) is the fall-back for a view the light one lets slide off
+// the tripod: a bare wall, a periodic texture.
+enum class PriorStrength { Light, Firm };
+
+IcpPosePrior tripod_prior(const TripodMotion& m, const Isometry3d& guess,
+                          const AlignmentOptions& o, PriorStrength strength) {
+  IcpPosePrior prior;
+  prior.T_target_source = guess;
+  prior.T_target_source.translation() = m.predicted_centre(guess);
+  prior.centre_sigma_m = kTripodCentreSigmaM;
+  prior.rotation_sigma_deg = kGuessRotationSigmaDeg;
+  prior.point_sigma_m = 0.5 * o.voxel_size;
+  prior.per_correspondence = strength == PriorStrength::Firm;
+  return prior;
+}
+
+class TripodSearch {
+ public:
+  TripodSearch(const AlignmentState& s, const Target& model, std::size_t frame,
+               const TripodMotion& m, const Isometry3d& T_last)
+      : s_(s), o_(s.options), model_(model), frame_(frame), m_(m), T_last_(T_last) {}
+
+  // Screens the guesses, refines the fittest few that respect the tripod, keeps the best.
+  // forward_only: the turn keeps its direction (not where a ring starts).
+  void run(const std::vector<Guess>& guesses, double max_turn_deg, bool forward_only) {
+    std::vector<Candidate> screened;
+    for (const Guess& g : guesses) {
+      IcpResult r = screen(s_.prepared[frame_].coarse, model_, g.T, o_,
+                           tripod_prior(m_, g.T, o_, PriorStrength::Firm));
+      if (!r.success && r.correspondences == 0) continue;
+      if (rotation_difference_deg(g.T, r.T_target_source) > kMaxWanderDeg) continue;
+      if (!tripod_violation(r.T_target_source, T_last_, m_, o_, max_turn_deg, forward_only)
+               .empty())
+        continue;
+      screened.push_back({std::move(r), g.label});
+    }
+    std::stable_sort(screened.begin(), screened.end(), [](const auto& a, const auto& b) {
+      return better(a.result, b.result);
+    });
+    std::vector<Isometry3d> refined_from;
+    for (const Candidate& c : screened) {
+      if (refined_from.size() >= o_.tripod_refined_guesses) break;
+      const bool repeat = std::any_of(refined_from.begin(), refined_from.end(), [&](const auto& T) {
+        return rotation_difference_deg(T, c.result.T_target_source) < 1.0 &&
+               translation_difference_m(T, c.result.T_target_source) < 2.0 * o_.voxel_size;
+      });
+      if (repeat) continue;
+      refined_from.push_back(c.result.T_target_source);
+      refine_on_tripod(c.result.T_target_source, c.label, max_turn_deg, forward_only);
+    }
+  }
+
+  // Refines from `init` with the light prior, and with the firm one where the light one lets
+  // the camera leave the tripod.
+  void refine_on_tripod(const Isometry3d& init, const char* label, double max_turn_deg,
+                        bool forward_only) {
+    const auto run = [&](PriorStrength strength) {
+      return refine(s_.prepared[frame_].cloud, s_.prepared[frame_].coarse, model_, init, o_,
+                    tracking_method(o_), tripod_prior(m_, init, o_, strength));
+    };
+    IcpResult light = run(PriorStrength::Light);
+    if (rotation_difference_deg(init, light.T_target_source) > kMaxWanderDeg) return;
+    const bool slid =
+        !tripod_violation(light.T_target_source, T_last_, m_, o_, max_turn_deg, forward_only)
+             .empty();
+    if (consider(std::move(light), label, max_turn_deg, forward_only)) {
+      best_init_ = init;
+      best_limits_ = {max_turn_deg, forward_only};
+      best_is_firm_ = false;
+    }
+    if (!slid) return;
+    IcpResult firm = run(PriorStrength::Firm);
+    if (rotation_difference_deg(init, firm.T_target_source) > kMaxWanderDeg) return;
+    if (consider(std::move(firm), label, max_turn_deg, forward_only)) {
+      best_init_ = init;
+      best_is_firm_ = true;
+    }
+  }
+
+  // The light prior's winner, checked against the firm prior from the same guess: where the
+  // data lets the camera drift more than kMaxDataSlideM from where the tripod holds it, the
+  // data does not fix the position (a wall seen square on slides freely) and the tripod's
+  // place is the better estimate. The self-check trusts the tripod for a view's position, so
+  // tracking must not let the data move it unheld.
+  void settle() {
+    if (!accepted_ || best_is_firm_) return;
+    IcpResult firm = refine(s_.prepared[frame_].cloud, s_.prepared[frame_].coarse, model_,
+                            best_init_, o_, tracking_method(o_),
+                            tripod_prior(m_, best_init_, o_, PriorStrength::Firm));
+    const double slide =
+        (firm.T_target_source.translation() - view_.best->T_target_source.translation()).norm();
+    if (slide <= kMaxDataSlideM) return;
+    if (!tripod_violation(firm.T_target_source, T_last_, m_, o_, best_limits_.first,
+                          best_limits_.second)
+             .empty() ||
+        !acceptable(firm, o_, o_.min_fitness))
+      return;
+    view_.best = std::move(firm);
+    best_is_firm_ = true;
+  }
+
+  // Keeps `r` when it is the best acceptable result so far; true when it was kept.
+  bool consider(IcpResult r, const char* label, double max_turn_deg, bool forward_only) {
+    const std::string violation =
+        tripod_violation(r.T_target_source, T_last_, m_, o_, max_turn_deg, forward_only);
+    const bool ok = violation.empty() && acceptable(r, o_, o_.min_fitness);
+    if (ok && (!accepted_ || better(r, view_.best.value()))) {
+      view_.best = std::move(r);
+      view_.initialisation = label;
+      accepted_ = true;
+      return true;
+    }
+    if (!accepted_ && (!view_.best || better(r, *view_.best))) {
+      view_.failure = violation.empty() ? rejection(r, o_, o_.min_fitness) : violation;
+      view_.best = std::move(r);
+    }
+    return false;
+  }
+
+  bool accepted() const { return accepted_; }
+  const Isometry3d& best_init() const { return best_init_; }
+  TrackedView& view() { return view_; }
+
+ private:
+  const AlignmentState& s_;
+  const AlignmentOptions& o_;
+  const Target& model_;
+  std::size_t frame_;
+  const TripodMotion& m_;
+  Isometry3d T_last_;
+  TrackedView view_;
+  bool accepted_ = false;
+  Isometry3d best_init_ = Isometry3d::Identity();
+  std::pair<double, bool> best_limits_{0.0, false};
+  bool best_is_firm_ = false;
+};
+
+}  // namespace
+
+TrackedView register_tripod_view(const AlignmentState& s, const Target& model, std::size_t frame,
+                                 std::size_t piece) {
+  const AlignmentOptions& o = s.options;
+  const std::vector<std::size_t> views = piece_views(s, piece);
+  const TripodMotion m = tripod_motion(s, views);
+  const Isometry3d& T_last = s.tracked_pose(views.back());
+  TripodSearch search(s, model, frame, m, T_last);
+
+  // A ring is entered until one of its views is registered: its first views are searched
+  // with tilts, from the last view and from the previous ring's first registered view.
+  const std::vector<std::size_t> starts = ring_starts(o);
+  const auto ring_of = [&](std::size_t f) {
+    return static_cast<std::size_t>(std::upper_bound(starts.begin(), starts.end(), f) -
+                                    starts.begin());
+  };
+  const std::size_t ring = ring_of(frame);
+  const bool starts_ring =
+      ring > 1 && std::none_of(views.begin(), views.end(),
+                               [&](std::size_t f) { return ring_of(f) == ring; });
+  if (!starts_ring) {
+    std::vector<Guess> guesses;
+    if (m.pan_axis)
+      search.refine_on_tripod(turned(T_last, *m.pan_axis, m.last_step_rad), "tripod prediction",
+                              o.max_tripod_step_deg + 5.0, true);
+    add_turns(guesses, T_last, m, o);
+    search.run(guesses, o.max_tripod_step_deg + 5.0, true);
+  }
+  const double max_tilt_turn = std::hypot(o.max_tripod_step_deg, o.max_tripod_tilt_deg);
+  if (!search.accepted()) {
+    std::vector<Guess> guesses;
+    add_tilts(guesses, T_last, m, o);
+    if (starts_ring) {
+      const auto first_of_previous = std::find_if(
+          views.begin(), views.end(), [&](std::size_t f) { return ring_of(f) == ring - 1; });
+      if (first_of_previous != views.end())
+        add_tilts(guesses, s.tracked_pose(*first_of_previous), m, o);
+    }
+    search.run(guesses, max_tilt_turn, false);
+  }
+  if (!search.accepted()) {
+    const auto g = features(s.prepared[frame].cloud, model.fine,
+                            m.centre.cast<float>(), o, frame);
+    if (g.ransac.success) {
+      search.view().T_world_camera_svd = g.ransac.T_target_source;
+      search.refine_on_tripod(g.ransac.T_target_source, "features", max_tilt_turn, false);
+    }
+  }
+  search.settle();
+  if (search.accepted()) search.view().T_world_camera_initial = search.best_init();
+  TrackedView view = std::move(search.view());
+  if (search.accepted()) view.failure.clear();
+  if (!view.best) view.failure = "no guess overlapped the model";
+  return view;
+}
+
+}  // namespace locard::alignment_detail
