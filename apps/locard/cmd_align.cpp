@@ -48,6 +48,7 @@ struct AlignCliOptions {
   // Unset: from the sequence's traits (default_alignment_options, alignment_defaults.hpp).
   std::optional<std::string> mode;
   std::optional<std::string> odometry_icp;
+  std::optional<std::string> tripod_icp;
   double voxel = 0.02;
   int stride = 2;
   double min_depth = 0.3;
@@ -292,6 +293,13 @@ int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
       throw InputError(fmt::format("--odometry-icp must be colored or point-to-plane, got '{}'",
                                    *opt.odometry_icp));
   }
+  std::optional<IcpMethod> tripod_icp;
+  if (opt.tripod_icp) {
+    tripod_icp = parse_icp_method(*opt.tripod_icp);
+    if (!tripod_icp || *tripod_icp == IcpMethod::PointToPoint)
+      throw InputError(fmt::format("--tripod-icp must be colored or point-to-plane, got '{}'",
+                                   *opt.tripod_icp));
+  }
   if (!input_exists) throw_input_error(opt.sequence, "no such file or folder");
   if (format != DatasetFormat::Tum && format != DatasetFormat::SevenScenes &&
       format != DatasetFormat::Redwood)
@@ -307,6 +315,7 @@ int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
   AlignmentOptions o = default_alignment_options(sequence.traits);
   if (mode) o.mode = *mode;
   if (odometry_icp) o.odometry_method = *odometry_icp;
+  if (tripod_icp) o.tripod_method = *tripod_icp;
   if (opt.max_depth) o.max_depth_m = *opt.max_depth;
   o.voxel_size = opt.voxel;
   o.stride = opt.stride;
@@ -425,6 +434,9 @@ void register_align(CLI::App& app, GlobalOptions& global) {
                   "Odometry mode, last ICP level: colored (colour registered to depth) or "
                   "point-to-plane; default: from the data (colored when colour is registered "
                   "to depth)");
+  cmd->add_option("--tripod-icp", options->tripod_icp,
+                  "Cumulative (tripod) mode, last ICP level: colored or point-to-plane; "
+                  "default: from the data (colored when colour is registered to depth)");
   cmd->add_option("--voxel", options->voxel, "Voxel size of frames and model (m)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);

@@ -27,7 +27,6 @@ AlignmentOptions default_alignment_options(const SequenceTraits& traits) {
   o.max_depth_m = default_max_depth_m(traits.sensor);
   o.odometry_method =
       traits.color_registered_to_depth ? IcpMethod::Colored : IcpMethod::PointToPlane;
-  o.tripod_method = o.odometry_method;
   return o;
 }
 

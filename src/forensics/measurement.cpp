@@ -333,8 +333,12 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
       q += edge * o;
       // The jackknife spread of the views, the counting noise (Poisson in both windows), the
       // quantisation of a count (a step / sqrt(12)) and the sensor's lateral noise per view.
-      const double ratio = beyond / window;
-      const double counting = m * m * ratio * ratio * (1.0 / std::max(beyond, 1.0) + 1.0 / window);
+      // var(b / w) ~ var(b) / w^2 + b^2 var(w) / w^4, each count's variance taken as n + 1
+      // (the posterior of a Poisson rate under a flat prior): a count of 0 or 1 points says
+      // little, and the plain n would call it nearly exact.
+      const double counting = m * m * ((beyond + 1.0) / (window * window) +
+                                       beyond * beyond * (window + 1.0) /
+                                           (window * window * window * window));
       const double step = median(steps);
       const double lateral = model.noise().lateral_sigma_m(1.0);
       // Mixed pixels between the edge and a surface close behind it (less than the mixed-pixel

@@ -134,8 +134,10 @@ struct AlignmentOptions {
   // Tripod tracking (cumulative mode, step 2): the widest turn between consecutive views
   // (wider than the field of view leaves no overlap), the spacing of the turns tried, and the
   // widest tilt tried where a ring starts.
-  // The method of the last ICP level of tripod tracking: coloured where colour is registered
-  // to depth (a textured bare wall still fixes the turn), else point to plane.
+  // The method of the last ICP level of tripod tracking (`--tripod-icp`). Point to plane by
+  // default: measured on simulated turns, coloured ICP is better on strongly textured walls
+  // (a random checker room: ATE 2.7 vs 8.0 mm) but worse on the bedroom (0.79 vs 0.56 mm)
+  // and 25 % slower; the tripod prior, not colour, is what holds a bare wall.
   IcpMethod tripod_method = IcpMethod::PointToPlane;
   double max_tripod_step_deg = 60.0;
   double tripod_sweep_step_deg = 5.0;
