@@ -41,15 +41,13 @@ constexpr double kMaxDataSlideM = 0.02;
 // ICP that turns further than this from its guess has left the guess's basin: the guesses
 // are a few degrees apart, so the right pose is always near one of them.
 constexpr double kMaxWanderDeg = 10.0;
-// Below this (see turn_constraint) the geometry does not fix the turn about the pan axis.
-constexpr double kMinTurnConstraint = 0.01;
 constexpr double kGuessRotationSigmaDeg = 5.0;
 
 // What the registered views of the piece so far say about the tripod.
 struct TripodMotion {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();  // median camera centre
   std::optional<Eigen::Vector3d> pan_axis;           // world frame; unknown before a turn
-  double last_step_rad = 0.0;  // signed, about pan_axis: the median step so far
+  double last_step_rad = 0.0;                        // signed, about pan_axis
   // The camera centre turns with the camera about the tripod's pivot (a nodal offset):
   // c = pivot + R R_last^T (c_last - pivot). Without a fitted pivot, c = c_last.
   Isometry3d T_last = Isometry3d::Identity();
@@ -162,16 +160,12 @@ TripodMotion tripod_motion(const AlignmentState& s, const std::vector<std::size_
   m.pivot = fitted_pivot(s, views);
   if (sum.norm() < 2.0 * kDeg) return m;
   m.pan_axis = sum.normalized();
-  // The step: the median of the turns between consecutive views so far, so that one view
-  // that stuck (a turn of zero onto covered ground) does not become the prediction.
-  std::vector<double> steps;
-  for (std::size_t k = 1; k < views.size(); ++k) {
-    const Eigen::AngleAxisd step(s.tracked_pose(views[k]).linear() *
-                                 s.tracked_pose(views[k - 1]).linear().transpose());
-    const double along = step.axis().dot(*m.pan_axis);
-    if (std::abs(along) > std::cos(30.0 * kDeg)) steps.push_back(step.angle() * along);
+  if (views.size() >= 2) {
+    const Eigen::AngleAxisd last(s.tracked_pose(views.back()).linear() *
+                                 s.tracked_pose(views[views.size() - 2]).linear().transpose());
+    const double along = last.axis().dot(*m.pan_axis);
+    if (std::abs(along) > std::cos(30.0 * kDeg)) m.last_step_rad = last.angle() * along;
   }
-  if (!steps.empty()) m.last_step_rad = median(steps);
   return m;
 }
 
@@ -265,12 +259,7 @@ class TripodSearch {
  public:
   TripodSearch(const AlignmentState& s, const Target& model, std::size_t frame,
                const TripodMotion& m, const Isometry3d& T_last)
-      : s_(s), o_(s.options), model_(model), frame_(frame), m_(m), T_last_(T_last) {
-    double sum = 0.0;
-    const auto& points = s.prepared[frame].cloud.positions;
-    for (const auto& p : points) sum += p.cast<double>().squaredNorm();
-    if (!points.empty() && sum > 0.0) mean_range_sq_ = sum / static_cast<double>(points.size());
-  }
+      : s_(s), o_(s.options), model_(model), frame_(frame), m_(m), T_last_(T_last) {}
 
   // Screens the guesses, refines the fittest few that respect the tripod, keeps the best.
   // forward_only: the turn keeps its direction (not where a ring starts).
@@ -334,38 +323,7 @@ class TripodSearch {
   // data does not fix the position (a wall seen square on slides freely) and the tripod's
   // place is the better estimate. The self-check trusts the tripod for a view's position, so
   // tracking must not let the data move it unheld.
-  // The prediction's result, kept if it was acceptable when refined.
-  void remember_prediction() {
-    if (accepted_) prediction_ = Kept{*view_.best, view_.initialisation, best_init_, best_is_firm_};
-  }
-
-  // Where the geometry barely fixes the turn about the pan axis (a view of floor only, or of
-  // one wall seen square on), fitness ranks the guesses by how much of the model they land
-  // on - turning back onto covered ground wins - so the steady step decides instead.
-  void prefer_prediction_where_the_turn_is_free() {
-    if (!accepted_ || !prediction_ || !m_.pan_axis ||
-        view_.initialisation == prediction_->initialisation)
-      return;
-    if (turn_constraint(*view_.best) >= kMinTurnConstraint) return;
-    view_.best = prediction_->result;
-    view_.initialisation = prediction_->initialisation;
-    best_init_ = prediction_->init;
-    best_is_firm_ = prediction_->firm;
-  }
-
-  // g^T H g for a unit turn about the pan axis through the camera centre, per correspondence
-  // and per squared range: 0 for a view of floor only, about 0.1 for a wall seen square on.
-  double turn_constraint(const IcpResult& r) const {
-    const Eigen::Vector3d a = *m_.pan_axis;
-    const Eigen::Vector3d c = r.T_target_source.translation();
-    Eigen::Matrix<double, 6, 1> g;
-    g << a, -a.cross(c);
-    const double n = static_cast<double>(std::max<std::size_t>(r.correspondences, 1));
-    return g.dot(r.hessian * g) / (n * mean_range_sq_);
-  }
-
   void settle() {
-    prefer_prediction_where_the_turn_is_free();
     if (!accepted_ || best_is_firm_) return;
     IcpResult firm = refine(s_.prepared[frame_].cloud, s_.prepared[frame_].coarse, model_,
                             best_init_, o_, tracking_method(o_),
@@ -413,14 +371,6 @@ class TripodSearch {
   Isometry3d T_last_;
   TrackedView view_;
   bool accepted_ = false;
-  struct Kept {
-    IcpResult result;
-    std::string initialisation;
-    Isometry3d init;
-    bool firm;
-  };
-  std::optional<Kept> prediction_;
-  double mean_range_sq_ = 1.0;  // of the frame's points from its camera
   Isometry3d best_init_ = Isometry3d::Identity();
   std::pair<double, bool> best_limits_{0.0, false};
   bool best_is_firm_ = false;
@@ -450,11 +400,8 @@ TrackedView register_tripod_view(const AlignmentState& s, const Target& model, s
   if (!starts_ring) {
     std::vector<Guess> guesses;
     if (m.pan_axis)
-    {
       search.refine_on_tripod(turned(T_last, *m.pan_axis, m.last_step_rad), "tripod prediction",
                               o.max_tripod_step_deg + 5.0, true);
-      search.remember_prediction();
-    }
     add_turns(guesses, T_last, m, o);
     search.run(guesses, o.max_tripod_step_deg + 5.0, true);
   }
