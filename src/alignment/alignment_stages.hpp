@@ -89,8 +89,9 @@ IcpResult screen(const PointCloud& source_coarse, const Target& target, const Is
 struct TrackedView {
   std::optional<IcpResult> best;  // the accepted result, or the best rejected one
   std::string initialisation;
-  std::optional<Isometry3d> T_world_camera_svd;  // when feature registration ran
-  std::optional<Isometry3d> T_world_camera_initial;  // the guess the accepted ICP began at
+  // The pose the accepted ICP began at: the feature (SVD) pose when features won, else the
+  // tripod guess.
+  std::optional<Isometry3d> T_world_camera_initial;
   std::string failure;            // why nothing was accepted; empty when best is accepted
 };
 TrackedView register_tripod_view(const AlignmentState& s, const Target& model, std::size_t frame,

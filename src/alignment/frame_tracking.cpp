@@ -99,10 +99,7 @@ void track_frames(AlignmentState& s) {
     }
     if (o.mode == AlignmentMode::Cumulative) {
       TrackedView view = register_tripod_view(s, model.target(), i, piece);
-      // The stage report's first stage is the pose ICP began at: the feature (SVD) pose when
-      // features won, else the tripod guess.
-      f.T_world_camera_svd = view.initialisation == "features" ? view.T_world_camera_svd
-                                                               : view.T_world_camera_initial;
+      f.T_world_camera_svd = view.T_world_camera_initial;  // the stage report's first stage
       if (view.failure.empty()) {
         accept(i, *view.best, view.initialisation);
         model.add(i);

@@ -22,7 +22,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 #include <utility>
 
 namespace locard::alignment_detail {
@@ -420,10 +419,8 @@ TrackedView register_tripod_view(const AlignmentState& s, const Target& model, s
   if (!search.accepted()) {
     const auto g = features(s.prepared[frame].cloud, model.fine,
                             m.centre.cast<float>(), o, frame);
-    if (g.ransac.success) {
-      search.view().T_world_camera_svd = g.ransac.T_target_source;
+    if (g.ransac.success)
       search.refine_on_tripod(g.ransac.T_target_source, "features", max_tilt_turn, false);
-    }
   }
   search.settle();
   if (search.accepted()) search.view().T_world_camera_initial = search.best_init();
