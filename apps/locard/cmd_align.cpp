@@ -446,7 +446,7 @@ void register_align(CLI::App& app, GlobalOptions& global) {
   cmd->add_option("--min-depth", options->min_depth, "Nearest depth used (m)")->capture_default_str();
   cmd->add_option("--max-depth", options->max_depth,
                   "Farthest depth used (m); default: from the data (structured light 3, time "
-                  "of flight 4, synthetic 8)");
+                  "of flight 4.5, synthetic 8)");
   cmd->add_option("--first", options->first, "First frame (index in the sequence)");
   cmd->add_option("--frames", options->frames, "Number of frames (0: all)");
   cmd->add_flag("--no-loop-closure", options->no_loop_closure, "Skip loop closure");

@@ -357,7 +357,7 @@ void register_mesh(CLI::App& app, GlobalOptions& global) {
       ->check(CLI::NonNegativeNumber);
   sub->add_option("--max-depth", opt->max_depth,
                   "Ignore depth beyond this (m); default: from the data (structured light 3, "
-                  "time of flight 4, synthetic 8)")
+                  "time of flight 4.5, synthetic 8)")
       ->check(CLI::PositiveNumber);
   sub->add_option("--min-depth", opt->min_depth, "Ignore depth closer than this (m)")
       ->check(CLI::NonNegativeNumber)

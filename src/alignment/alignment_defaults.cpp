@@ -7,7 +7,7 @@ namespace locard {
 double default_max_depth_m(DepthSensorKind sensor) {
   switch (sensor) {
     case DepthSensorKind::StructuredLight: return 3.0;
-    case DepthSensorKind::TimeOfFlight: return 4.0;
+    case DepthSensorKind::TimeOfFlight: return 4.5;
     case DepthSensorKind::Synthetic: return 8.0;
     case DepthSensorKind::Unknown: break;
   }

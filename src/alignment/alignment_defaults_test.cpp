@@ -22,7 +22,7 @@ constexpr CaptureKind kCaptures[] = {CaptureKind::Unknown, CaptureKind::HandHeld
 double expected_depth(DepthSensorKind s) {
   switch (s) {
     case DepthSensorKind::StructuredLight: return 3.0;
-    case DepthSensorKind::TimeOfFlight: return 4.0;
+    case DepthSensorKind::TimeOfFlight: return 4.5;
     case DepthSensorKind::Synthetic: return 8.0;
     case DepthSensorKind::Unknown: break;
   }
@@ -82,7 +82,7 @@ TEST(AlignmentDefaults, NamedDatasetsGetTheirSchemes) {
   sim.ring_sizes = {50, 50};
   const AlignmentOptions b = default_alignment_options(sim);
   EXPECT_EQ(b.mode, AlignmentMode::Cumulative);
-  EXPECT_DOUBLE_EQ(b.max_depth_m, 4.0);
+  EXPECT_DOUBLE_EQ(b.max_depth_m, 4.5);
   EXPECT_THAT(b.ring_sizes, ElementsAre(50u, 50u));
 }
 

@@ -293,15 +293,35 @@ bool place(Draws& d, SceneObject& o, const Scene& scene, const std::vector<Polyg
   return false;
 }
 
-std::vector<double> draw_pitches(Draws& d) {
+// The tripod's rings overlap as a scan protocol makes them: the next ring is pitched up by 30-60 %
+// of the depth camera's vertical field of view, so neighbouring rings share 40-70 % of it (a gap
+// wider than the field leaves rings that no method can join). One ring: level or looking down.
+std::vector<double> draw_pitches(Draws& d, const KinectModel& sensor) {
   const int rings = d.integer(1, 3);
   const double down = d.integer(-25, -10);
-  const double up = d.integer(10, 30);
-  switch (rings) {
-    case 1: return {d.chance(0.75) ? down : 0.0};
-    case 2: return {down, d.chance(0.5) ? 0.0 : up};
-    default: return {down, 0.0, up};
-  }
+  const double spacing_share = d.uniform(0.3, 0.6);
+  const bool level_alone = d.chance(0.25);
+  if (rings == 1) return {level_alone ? 0.0 : down};
+  const CameraIntrinsics& K = sensor.intrinsics;
+  const double vfov_deg = 2.0 * std::atan(0.5 * K.height / K.fy) * 180.0 / std::numbers::pi;
+  const double spacing = std::round(spacing_share * vfov_deg);
+  std::vector<double> pitches{down};
+  for (int r = 1; r < rings; ++r) pitches.push_back(pitches.back() + spacing);
+  return pitches;
+}
+
+// Where the sensor sees walls: 85 % of the range alignment uses for it (alignment_defaults.hpp:
+// 4.5 m time of flight, 3.0 m structured light), so a view at any ring's pitch holds wall as
+// well as floor. An investigator's single tripod station stands where every wall is in reach;
+// a room wider than twice the reach needs a second station, which is not drawn.
+double wall_reach_m(ScannerModel sensor) {
+  return 0.85 * (sensor == ScannerModel::KinectV1 ? 3.0 : 4.5);
+}
+
+// A uniform draw u in [lo, hi] mapped onto [lo, top]: the same draw whatever the cap.
+double capped(double u, double lo, double hi, double top) {
+  if (top >= hi) return u;
+  return std::round((lo + (u - lo) * (top - lo) / (hi - lo)) * 1000.0) / 1000.0;
 }
 
 }  // namespace
@@ -337,7 +357,10 @@ Scene random_scene(std::uint64_t seed, const RandomSceneOptions& options) {
   const SurfaceKind surfaces = options.surfaces.value_or(drawn_surfaces);
 
   RoomSpec& room = scene.room;
-  room.size = {d.metres(kRoomMin, kRoomMax), d.metres(kRoomMin, kRoomMax),
+  const double reach = wall_reach_m(sensor);
+  const double widest = std::min(kRoomMax, 2.0 * reach);
+  room.size = {capped(d.metres(kRoomMin, kRoomMax), kRoomMin, kRoomMax, widest),
+               capped(d.metres(kRoomMin, kRoomMax), kRoomMin, kRoomMax, widest),
                d.metres(kHeightMin, kHeightMax)};
   room.wall_color = d.color(150, 235);
   room.floor_color = d.color(60, 200);
@@ -347,11 +370,17 @@ Scene random_scene(std::uint64_t seed, const RandomSceneOptions& options) {
 
   ScannerSpec& scanner = scene.scanner;
   scanner.model = sensor;
-  const double sx = 0.5 * room.size.x() - kScannerClearance;
-  const double sy = 0.5 * room.size.y() - kScannerClearance;
-  scanner.position = {d.metres(-sx, sx), d.metres(-sy, sy), d.metres(1.0, 1.6)};
+  // Off centre by up to what keeps the walls in reach and the tripod clear of them.
+  const auto off_centre = [&](double side) {
+    const double half = 0.5 * side;
+    const double most = std::max(0.0, std::min(half - kScannerClearance, reach - half));
+    return std::round(d.uniform(-1.0, 1.0) * most * 1000.0) / 1000.0;
+  };
+  const double sx = off_centre(room.size.x());
+  const double sy = off_centre(room.size.y());
+  scanner.position = {sx, sy, d.metres(1.0, 1.6)};
   scanner.views = d.integer(24, 72);
-  scanner.pitch_deg = draw_pitches(d);
+  scanner.pitch_deg = draw_pitches(d, KinectModel::of(sensor));
   scanner.yaw_jitter_deg = d.metres(0.5, 2.0, 0.01);
   scanner.position_jitter_m = d.metres(0.0, 0.008, 0.0001);
   scanner.seed = seed;

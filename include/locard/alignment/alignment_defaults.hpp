@@ -10,7 +10,7 @@
 //                 Unknown        -> Cumulative: nothing says consecutive frames are close, and
 //                                   feature-based registration does not assume they are
 //   sensor        StructuredLight -> max depth 3.0 m (noise grows with z^2: 1.9 cm at 3 m)
-//                 TimeOfFlight    -> 4.0 m
+//                 TimeOfFlight    -> 4.5 m (the Kinect v2's specified range)
 //                 Synthetic       -> 8.0 m (rendered depth: the range is the scene's)
 //                 Unknown         -> 4.0 m
 //   colour        registered      -> odometry's last ICP level Colored (photometric + geometric)
