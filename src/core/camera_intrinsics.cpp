@@ -65,6 +65,10 @@ CameraIntrinsics CameraIntrinsics::from_fov(int width, int height, double hfov_d
   return make(std::move(name), width, height, fx, fy, 0.5 * (width - 1), 0.5 * (height - 1));
 }
 
+double CameraIntrinsics::vertical_fov_deg() const {
+  return 2.0 * std::atan(0.5 * height / std::abs(fy)) * 180.0 / std::numbers::pi;
+}
+
 std::optional<CameraIntrinsics> CameraIntrinsics::find_preset(std::string_view name) {
   for (auto& k : all_presets())
     if (k.name == name) return k;

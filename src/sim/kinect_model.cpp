@@ -58,6 +58,14 @@ KinectModel KinectModel::kinect_v1() {
   return m;
 }
 
+DepthSensorKind depth_sensor_kind(ScannerModel sensor) {
+  switch (sensor) {
+    case ScannerModel::KinectV2: return DepthSensorKind::TimeOfFlight;
+    case ScannerModel::KinectV1: return DepthSensorKind::StructuredLight;
+  }
+  return DepthSensorKind::Unknown;
+}
+
 KinectModel KinectModel::of(ScannerModel sensor) {
   switch (sensor) {
     case ScannerModel::KinectV2: return kinect_v2();

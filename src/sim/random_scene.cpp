@@ -3,6 +3,7 @@
 // exactly what its scene.json reproduces.
 #include <locard/sim/random_scene.hpp>
 
+#include <locard/alignment/alignment_defaults.hpp>
 #include <locard/sim/counter_rng.hpp>
 #include <locard/sim/kinect_model.hpp>
 #include <locard/sim/measurements.hpp>
@@ -302,20 +303,18 @@ std::vector<double> draw_pitches(Draws& d, const KinectModel& sensor) {
   const double spacing_share = d.uniform(0.3, 0.6);
   const bool level_alone = d.chance(0.25);
   if (rings == 1) return {level_alone ? 0.0 : down};
-  const CameraIntrinsics& K = sensor.intrinsics;
-  const double vfov_deg = 2.0 * std::atan(0.5 * K.height / K.fy) * 180.0 / std::numbers::pi;
-  const double spacing = std::round(spacing_share * vfov_deg);
+  const double spacing = std::round(spacing_share * sensor.intrinsics.vertical_fov_deg());
   std::vector<double> pitches{down};
   for (int r = 1; r < rings; ++r) pitches.push_back(pitches.back() + spacing);
   return pitches;
 }
 
-// Where the sensor sees walls: 85 % of the range alignment uses for it (alignment_defaults.hpp:
-// 4.5 m time of flight, 3.0 m structured light), so a view at any ring's pitch holds wall as
-// well as floor. An investigator's single tripod station stands where every wall is in reach;
-// a room wider than twice the reach needs a second station, which is not drawn.
+// Where the sensor sees walls: 85 % of the range alignment uses for it (alignment_defaults.hpp),
+// so a view at any ring's pitch holds wall as well as floor. An investigator's single tripod
+// station stands where every wall is in reach; a room wider than twice the reach needs a second
+// station, which is not drawn.
 double wall_reach_m(ScannerModel sensor) {
-  return 0.85 * (sensor == ScannerModel::KinectV1 ? 3.0 : 4.5);
+  return 0.85 * default_max_depth_m(depth_sensor_kind(sensor));
 }
 
 // A uniform draw u in [lo, hi] mapped onto [lo, top]: the same draw whatever the cap.

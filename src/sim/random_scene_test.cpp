@@ -122,8 +122,7 @@ TEST(RandomScene, TwoHundredSeedsStayInTheirRanges) {
     EXPECT_TRUE((sc.pitch_deg.size() == 1 && first == 0.0) || (first >= -25.0 && first <= -10.0))
         << first;
     // Neighbouring rings share 40-70 % of the depth camera's vertical field of view.
-    const CameraIntrinsics& K = KinectModel::of(sc.model).intrinsics;
-    const double vfov = 2.0 * std::atan(0.5 * K.height / K.fy) * 180.0 / std::numbers::pi;
+    const double vfov = KinectModel::of(sc.model).intrinsics.vertical_fov_deg();
     for (std::size_t r = 1; r < sc.pitch_deg.size(); ++r) {
       const double spacing = sc.pitch_deg[r] - sc.pitch_deg[r - 1];
       EXPECT_GE(spacing, 0.3 * vfov - 0.5);

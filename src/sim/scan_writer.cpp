@@ -107,13 +107,7 @@ void write_provenance(const fs::path& path, const ScanSimulator& sim, bool color
 // Views are written ring after ring, as tripod_scan_trajectory plans them.
 void write_capture(const fs::path& path, const ScanSimulator& sim) {
   const ScannerSpec& scanner = sim.scene().scanner;
-  const DepthSensorKind depth_sensor = [&] {
-    switch (sim.model().sensor) {
-      case ScannerModel::KinectV2: return DepthSensorKind::TimeOfFlight;
-      case ScannerModel::KinectV1: return DepthSensorKind::StructuredLight;
-    }
-    return DepthSensorKind::Unknown;
-  }();
+  const DepthSensorKind depth_sensor = depth_sensor_kind(sim.model().sensor);
   nlohmann::ordered_json doc;
   doc["sensor"] = to_string(sim.model().sensor);
   doc["depth_sensor"] = to_string(depth_sensor);

@@ -47,6 +47,9 @@ struct CameraIntrinsics {
   // Builds intrinsics from a horizontal and vertical field of view (degrees), centred.
   static CameraIntrinsics from_fov(int width, int height, double hfov_deg, double vfov_deg,
                                    std::string name = {});
+  // The vertical field of view (degrees) over the outer pixel edges, from |fy| (ICL-NUIM's fy is
+  // negative): the inverse of from_fov's vfov_deg.
+  double vertical_fov_deg() const;
 };
 
 }  // namespace locard

@@ -21,6 +21,7 @@
 
 #include <locard/core/camera_intrinsics.hpp>
 #include <locard/core/image.hpp>
+#include <locard/io/rgbd_sequence.hpp>
 #include <locard/sim/scene.hpp>
 
 #include <cstdint>
@@ -44,6 +45,9 @@ struct IdealDepth {
 
 // Default-constructed: the Kinect v2. KinectModel::kinect_v1() is the structured-light sensor;
 // the fields that only one of them uses say so.
+// What kind of depth camera the model is, as the readers' sequence traits name it (capture.json).
+DepthSensorKind depth_sensor_kind(ScannerModel sensor);
+
 struct KinectModel {
   ScannerModel sensor = ScannerModel::KinectV2;
   // Kinect v2: 512x424, 70.6 x 60 degrees. Kinect v1: 640x480, f = 525 px.
