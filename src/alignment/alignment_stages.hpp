@@ -2,6 +2,7 @@
 // The stages of align_sequence (sequential_alignment.hpp) over one explicit state:
 //   prepare_frames   depth -> camera-frame clouds (step 1)
 //   track_frames     sequential registration into pieces (step 2)
+//   hold_to_tripod   tripod turn: views tracked off the fitted tripod registered again (2b)
 //   propose_loops    loop candidates from pose proximity, ring structure and piece ends (3)
 //   verify_loops     each candidate checked by registration (3)
 //   solve_graph      pose graph over odometry and loop edges, pieces joined (4)
@@ -59,10 +60,14 @@ struct AlignmentState {
 
 void prepare_frames(AlignmentState& state);
 void track_frames(AlignmentState& state);
+void hold_to_tripod(AlignmentState& state);
 void propose_loops(AlignmentState& state);
 void verify_loops(AlignmentState& state);
 void solve_graph(AlignmentState& state);
 void check_views(AlignmentState& state);
+// Smallest eigenvalue of a camera-frame cloud's per-point normal matrix (ViewCheckOptions'
+// "constraint"): rotation about the camera centre only, or all six degrees of freedom.
+double pose_constraint(const PointCloud& cloud, bool rotation_only);
 
 // Shared registration steps (frame_registration.cpp).
 // ICP of a camera-frame cloud against a target, coarse to fine: point to plane at 2v with a 4v

@@ -1,6 +1,7 @@
 // Stage 4 of align_sequence: the pose graph (alignment_stages.hpp, sequential_alignment.hpp
 // step 4). Pieces joined by a verified loop are first brought into one frame.
 #include "alignment/alignment_stages.hpp"
+#include "alignment/tripod_fit.hpp"
 
 #include <tbb/parallel_for.h>
 
@@ -82,6 +83,19 @@ void accumulate(PoseGraphResult& total, const PoseGraphResult& pr) {
   total.max_odometry_bend_m = std::max(total.max_odometry_bend_m, pr.max_odometry_bend_m);
 }
 
+// Tripod post-check: loop edges registered without the tripod may slide along walls, and a
+// solve that follows them moves views off the tripod the hold stage put them on. Such a
+// solution is worse than the tracked poses: bounds of the hold stage (tripod_hold.cpp).
+constexpr double kOffRingDeg = 0.5;
+constexpr double kOffTripodM = 0.02;
+
+bool bends_tripod(const std::vector<Isometry3d>& before, const std::vector<Isometry3d>& after) {
+  const auto was = views_off_tripod(before, kOffRingDeg, kOffTripodM);
+  if (!was) return false;
+  const auto now = views_off_tripod(after, kOffRingDeg, kOffTripodM);
+  return !now || *now > *was;
+}
+
 }  // namespace
 
 void solve_graph(AlignmentState& s) {
@@ -130,7 +144,26 @@ void solve_graph(AlignmentState& s) {
       le.target = local[e.target];
       sub.edges.push_back(le);
     }
+    const std::vector<Isometry3d> tracked = sub.nodes;
+    std::vector<PoseGraphEdge> edges = sub.edges;
     PoseGraphResult pr = optimize_pose_graph(sub, o.pose_graph);
+    const bool one_piece = std::all_of(nodes.begin(), nodes.end(), [&](std::size_t k) {
+      return s.piece_of[reg[k]] == s.piece_of[reg[nodes.front()]];
+    });
+    if (o.mode == AlignmentMode::Cumulative && one_piece && bends_tripod(tracked, sub.nodes)) {
+      // Back to the tracked turn: every loop edge of the component is reported rejected.
+      sub.nodes = tracked;
+      sub.edges.clear();
+      for (PoseGraphEdge& e : edges) {
+        if (!e.uncertain) {
+          e.confidence = 1.0;
+          sub.edges.push_back(e);
+          continue;
+        }
+        pr.rejected.push_back({e, "the solution moved views off the tripod the tracked turn "
+                                  "keeps them on"});
+      }
+    }
     for (std::size_t k = 0; k < nodes.size(); ++k) solved.nodes[nodes[k]] = sub.nodes[k];
     for (const PoseGraphEdge& e : sub.edges) {
       PoseGraphEdge g = e;

@@ -125,6 +125,7 @@ AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOpti
 
   t0 = Clock::now();
   alignment_detail::track_frames(state);
+  alignment_detail::hold_to_tripod(state);
   timings.register_s = seconds_since(t0);
 
   t0 = Clock::now();

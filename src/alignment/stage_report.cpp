@@ -190,6 +190,9 @@ void write_stage_report_json(const std::filesystem::path& path, const AlignmentR
                     {"residual_m", c.residual_m},  {"correction_m", c.correction_m},
                     {"correction_deg", c.correction_deg}, {"free_space", c.free_space},
                     {"constraint", c.constraint},  {"reason", c.reason}};
+      if (std::isfinite(c.off_axis_deg)) e["check"]["off_axis_deg"] = c.off_axis_deg;
+      if (std::isfinite(c.tripod_residual_m))
+        e["check"]["tripod_residual_m"] = c.tripod_residual_m;
     } else {
       e["reason"] = f.reason;
     }

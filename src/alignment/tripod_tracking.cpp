@@ -15,6 +15,7 @@
 //      are added (from the previous view and from the previous ring's first view), and then
 //      feature registration; every result is held to the tripod all the same.
 #include "alignment/alignment_stages.hpp"
+#include "alignment/tripod_fit.hpp"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -41,6 +42,14 @@ constexpr double kMaxDataSlideM = 0.02;
 // are a few degrees apart, so the right pose is always near one of them.
 constexpr double kMaxWanderDeg = 10.0;
 constexpr double kGuessRotationSigmaDeg = 5.0;
+// The pan axis voted from every view (tripod_fit.hpp) holds tilt and roll once the views on
+// their rings span this much turn (an axis from a short turn is off by the views' noise over
+// the turn's angle), held this firmly per correspondence.
+constexpr double kHingeAfterTurnDeg = 45.0;
+constexpr double kHeldOffAxisSigmaDeg = 0.2;
+// A view whose camera-frame axis lies this near a ring's is held to that ring; further off it
+// starts a ring of its own (the first views after a tilt).
+constexpr double kSameRingDeg = 3.0;
 
 // What the registered views of the piece so far say about the tripod.
 struct TripodMotion {
@@ -51,6 +60,13 @@ struct TripodMotion {
   // c = pivot + R R_last^T (c_last - pivot). Without a fitted pivot, c = c_last.
   Isometry3d T_last = Isometry3d::Identity();
   std::optional<Eigen::Vector3d> pivot;
+  // Once the tripod fit holds: the pan axis (world) and the pan axis as the next view must see
+  // it (its ring's, camera frame); tilt and roll are then held to them.
+  std::optional<Eigen::Vector3d> hinge_axis;
+  Eigen::Vector3d held_camera_axis = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d on_hinge(const Eigen::Matrix3d& R) const {
+    return hinge_axis ? onto_ring(R, *hinge_axis, held_camera_axis) : R;
+  }
   Eigen::Vector3d predicted_centre(const Isometry3d& T) const {
     if (!pivot) return T_last.translation();
     return *pivot + T.linear() * T_last.linear().transpose() * (T_last.translation() - *pivot);
@@ -133,6 +149,31 @@ std::optional<Eigen::Vector3d> fitted_pivot(const AlignmentState& s,
   return P;
 }
 
+// The hinge from the tripod fit of the views so far, once they span enough turn on their
+// rings; the last view's ring is the one held (or its own axis, where it starts a ring).
+void hold_to_fit(TripodMotion& m, const AlignmentState& s, const std::vector<std::size_t>& views) {
+  std::vector<Eigen::Matrix3d> R;
+  for (std::size_t f : views) R.push_back(s.tracked_pose(f).linear());
+  const std::optional<TripodFit> fit = fit_tripod(R);
+  if (!fit) return;
+  const TripodFitOptions limits;
+  std::optional<std::size_t> first_on_ring;
+  double widest = 0.0;
+  for (std::size_t k = 0; k < R.size(); ++k) {
+    if (fit->off_axis_deg[k] >= limits.inlier_deg) continue;
+    if (!first_on_ring) first_on_ring = k;
+    widest = std::max(widest, Eigen::AngleAxisd(R[k] * R[*first_on_ring].transpose()).angle());
+  }
+  if (widest < kHingeAfterTurnDeg * kDeg) return;
+  const Eigen::Vector3d seen = R.back().transpose() * fit->axis;
+  const Eigen::Vector3d held =
+      fit->off_axis_deg.back() < kSameRingDeg ? fit->ring_axes[fit->ring.back()] : seen;
+  const double sign = m.pan_axis && m.pan_axis->dot(fit->axis) < 0.0 ? -1.0 : 1.0;
+  m.pan_axis = sign * fit->axis;
+  m.hinge_axis = m.pan_axis;
+  m.held_camera_axis = sign * held;
+}
+
 // Pan axis: the angle-weighted mean of the step axes that agree with the first clear step
 // (a ring change tilts about another axis and is left out), signed so the turn is positive.
 TripodMotion tripod_motion(const AlignmentState& s, const std::vector<std::size_t>& views) {
@@ -159,6 +200,7 @@ TripodMotion tripod_motion(const AlignmentState& s, const std::vector<std::size_
   m.pivot = fitted_pivot(s, views);
   if (sum.norm() < 2.0 * kDeg) return m;
   m.pan_axis = sum.normalized();
+  hold_to_fit(m, s, views);
   if (views.size() >= 2) {
     const Eigen::AngleAxisd last(s.tracked_pose(views.back()).linear() *
                                  s.tracked_pose(views[views.size() - 2]).linear().transpose());
@@ -241,9 +283,13 @@ struct Candidate {
 // firm prior (as sure as the data) is the fall-back for a view the light one lets slide off
 // the tripod: a bare wall, a periodic texture.
 enum class PriorStrength { Light, Firm };
+// Within a ring the head turns about the pan axis only: the hinge holds tilt and roll to the
+// ring (the turn a wall seen square on leaves free otherwise walks by degrees a view). Where a
+// ring starts the camera tilts, and nothing is held.
+enum class Hinge { Free, PanAxis };
 
 IcpPosePrior tripod_prior(const TripodMotion& m, const Isometry3d& guess,
-                          const AlignmentOptions& o, PriorStrength strength) {
+                          const AlignmentOptions& o, PriorStrength strength, Hinge hinge) {
   IcpPosePrior prior;
   prior.T_target_source = guess;
   prior.T_target_source.translation() = m.predicted_centre(guess);
@@ -251,6 +297,11 @@ IcpPosePrior tripod_prior(const TripodMotion& m, const Isometry3d& guess,
   prior.rotation_sigma_deg = kGuessRotationSigmaDeg;
   prior.point_sigma_m = 0.5 * o.voxel_size;
   prior.per_correspondence = strength == PriorStrength::Firm;
+  if (hinge == Hinge::PanAxis && m.hinge_axis) {
+    prior.T_target_source.linear() = m.on_hinge(guess.linear());
+    prior.hinge_axis = m.hinge_axis;
+    prior.off_axis_sigma_deg = kHeldOffAxisSigmaDeg;
+  }
   return prior;
 }
 
@@ -266,7 +317,7 @@ class TripodSearch {
     std::vector<Candidate> screened;
     for (const Guess& g : guesses) {
       IcpResult r = screen(s_.prepared[frame_].coarse, model_, g.T, o_,
-                           tripod_prior(m_, g.T, o_, PriorStrength::Firm));
+                           tripod_prior(m_, g.T, o_, PriorStrength::Firm, hinge_));
       if (!r.success && r.correspondences == 0) continue;
       if (rotation_difference_deg(g.T, r.T_target_source) > kMaxWanderDeg) continue;
       if (!tripod_violation(r.T_target_source, T_last_, m_, o_, max_turn_deg, forward_only)
@@ -296,7 +347,7 @@ class TripodSearch {
                         bool forward_only) {
     const auto run = [&](PriorStrength strength) {
       return refine(s_.prepared[frame_].cloud, s_.prepared[frame_].coarse, model_, init, o_,
-                    tracking_method(o_), tripod_prior(m_, init, o_, strength));
+                    tracking_method(o_), tripod_prior(m_, init, o_, strength, hinge_));
     };
     IcpResult light = run(PriorStrength::Light);
     if (rotation_difference_deg(init, light.T_target_source) > kMaxWanderDeg) return;
@@ -307,6 +358,7 @@ class TripodSearch {
       best_init_ = init;
       best_limits_ = {max_turn_deg, forward_only};
       best_is_firm_ = false;
+      best_hinge_ = hinge_;
     }
     if (!slid) return;
     IcpResult firm = run(PriorStrength::Firm);
@@ -314,6 +366,7 @@ class TripodSearch {
     if (consider(std::move(firm), label, max_turn_deg, forward_only)) {
       best_init_ = init;
       best_is_firm_ = true;
+      best_hinge_ = hinge_;
     }
   }
 
@@ -326,7 +379,7 @@ class TripodSearch {
     if (!accepted_ || best_is_firm_) return;
     IcpResult firm = refine(s_.prepared[frame_].cloud, s_.prepared[frame_].coarse, model_,
                             best_init_, o_, tracking_method(o_),
-                            tripod_prior(m_, best_init_, o_, PriorStrength::Firm));
+                            tripod_prior(m_, best_init_, o_, PriorStrength::Firm, best_hinge_));
     const double slide =
         (firm.T_target_source.translation() - view_.best->T_target_source.translation()).norm();
     if (slide <= kMaxDataSlideM) return;
@@ -357,6 +410,7 @@ class TripodSearch {
     return false;
   }
 
+  void hold(Hinge hinge) { hinge_ = hinge; }
   bool accepted() const { return accepted_; }
   const Isometry3d& best_init() const { return best_init_; }
   TrackedView& view() { return view_; }
@@ -373,6 +427,8 @@ class TripodSearch {
   Isometry3d best_init_ = Isometry3d::Identity();
   std::pair<double, bool> best_limits_{0.0, false};
   bool best_is_firm_ = false;
+  Hinge hinge_ = Hinge::Free;
+  Hinge best_hinge_ = Hinge::Free;
 };
 
 }  // namespace
@@ -397,13 +453,21 @@ TrackedView register_tripod_view(const AlignmentState& s, const Target& model, s
       ring > 1 && std::none_of(views.begin(), views.end(),
                                [&](std::size_t f) { return ring_of(f) == ring; });
   if (!starts_ring) {
+    // Where the view's geometry does not fix its rotation (a wall seen square on), the hinge
+    // does, and its turns start from the last pose put back on its ring; elsewhere the data
+    // decides, as an axis voted from a short turn is less sure than a well-fixed view.
+    const bool held = pose_constraint(s.prepared[frame].cloud, true) < o.view_check.min_constraint;
+    search.hold(held ? Hinge::PanAxis : Hinge::Free);
+    Isometry3d base = T_last;
+    if (held) base.linear() = m.on_hinge(T_last.linear());
     std::vector<Guess> guesses;
     if (m.pan_axis)
-      search.refine_on_tripod(turned(T_last, *m.pan_axis, m.last_step_rad), "tripod prediction",
+      search.refine_on_tripod(turned(base, *m.pan_axis, m.last_step_rad), "tripod prediction",
                               o.max_tripod_step_deg + 5.0, true);
-    add_turns(guesses, T_last, m, o);
+    add_turns(guesses, base, m, o);
     search.run(guesses, o.max_tripod_step_deg + 5.0, true);
   }
+  search.hold(Hinge::Free);
   const double max_tilt_turn = std::hypot(o.max_tripod_step_deg, o.max_tripod_tilt_deg);
   if (!search.accepted()) {
     std::vector<Guess> guesses;

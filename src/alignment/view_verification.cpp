@@ -1,6 +1,7 @@
 // Stage 5 of align_sequence: every registered view checked against the model of the other
 // views (ViewCheckOptions in sequential_alignment.hpp says what is tested and why).
 #include "alignment/alignment_stages.hpp"
+#include "alignment/tripod_fit.hpp"
 
 #include "core/floor_to_int.hpp"
 
@@ -10,6 +11,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <unordered_map>
 
 namespace locard::alignment_detail {
@@ -96,31 +98,6 @@ OthersModel others_model(const ViewModel& model, std::size_t view, const Eigen::
   return out;
 }
 
-// Smallest eigenvalue of the per-point normal matrix of the view's own points: rotation about
-// the camera centre only (tripod), or all six degrees of freedom with the rotation scaled by
-// the RMS lever arm (video).
-double constraint(const PointCloud& cloud, bool rotation_only) {
-  if (!cloud.has_normals() || cloud.empty()) return 0.0;
-  double lever2 = 0.0;
-  for (const Eigen::Vector3f& p : cloud.positions) lever2 += p.squaredNorm();
-  lever2 /= static_cast<double>(cloud.size());
-  const double lever = std::sqrt(std::max(lever2, 1e-12));
-  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
-  for (std::size_t k = 0; k < cloud.size(); ++k) {
-    const Eigen::Vector3d p = cloud.positions[k].cast<double>();
-    const Eigen::Vector3d n = cloud.normals[k].cast<double>();
-    Eigen::Matrix<double, 6, 1> j;
-    j << p.cross(n) / lever, n;
-    A += j * j.transpose();
-  }
-  A /= static_cast<double>(cloud.size());
-  if (rotation_only) {
-    const Eigen::Matrix3d R = A.topLeftCorner<3, 3>();
-    return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(R).eigenvalues()(0);
-  }
-  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(A).eigenvalues()(0);
-}
-
 // Share of the others' confirmed surface points in the view's image that the view's depth
 // lies behind (it sees through them). The depth behind a point must hold over the point's
 // 3x3 pixel neighbourhood, so mixed pixels at depth edges do not count.
@@ -171,8 +148,43 @@ Eigen::Vector3d median_centre(const AlignmentState& s, const std::vector<std::si
   return m;
 }
 
+// Tripod turn, per piece: each view's angle off its ring and its centre's distance from the
+// nodal model (tripod_fit.hpp); NaN where the views of a piece make no tripod fit.
+struct TripodConsistency {
+  std::vector<double> off_axis_deg, residual_m;
+};
+
+TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<std::size_t>& views) {
+  TripodConsistency out;
+  out.off_axis_deg.assign(s.n, std::numeric_limits<double>::quiet_NaN());
+  out.residual_m = out.off_axis_deg;
+  if (s.options.mode != AlignmentMode::Cumulative) return out;
+  std::size_t pieces = 0;
+  for (std::size_t i : views) pieces = std::max(pieces, s.result.frames[i].piece + 1);
+  for (std::size_t piece = 0; piece < pieces; ++piece) {
+    std::vector<std::size_t> members;
+    std::vector<Eigen::Matrix3d> R;
+    std::vector<Isometry3d> T;
+    for (std::size_t i : views)
+      if (s.result.frames[i].piece == piece) {
+        members.push_back(i);
+        T.push_back(*s.result.frames[i].T_world_camera_final);
+        R.push_back(T.back().linear());
+      }
+    const std::optional<TripodFit> fit = fit_tripod(R);
+    if (!fit) continue;
+    const NodalFit nodal = fit_nodal(T);
+    for (std::size_t k = 0; k < members.size(); ++k) {
+      out.off_axis_deg[members[k]] = fit->off_axis_deg[k];
+      out.residual_m[members[k]] = nodal.residual_m[k];
+    }
+  }
+  return out;
+}
+
 ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_t i,
-                     const Eigen::Vector3d& tripod_centre) {
+                     const Eigen::Vector3d& tripod_centre, double off_axis_deg,
+                     double tripod_residual_m) {
   const AlignmentOptions& o = s.options;
   const ViewCheckOptions& limits = o.view_check;
   const FrameAlignment& f = s.result.frames[i];
@@ -180,7 +192,9 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   const Isometry3d& T = *f.T_world_camera_final;
   ViewCheck c;
   c.checked = true;
-  c.constraint = constraint(cloud, o.mode == AlignmentMode::Cumulative);
+  c.constraint = pose_constraint(cloud, o.mode == AlignmentMode::Cumulative);
+  c.off_axis_deg = off_axis_deg;
+  c.tripod_residual_m = tripod_residual_m;
 
   Eigen::Vector3f lo = T.translation().cast<float>(), hi = lo;
   const Eigen::Isometry3f Tf = T.cast<float>();
@@ -237,6 +251,14 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
     reasons.push_back(fmt::format("its camera stands {:.2f} m from the tripod's centre (allowed "
                                   "{:.2f} m)",
                                   offset, limits.max_tripod_offset_m));
+  if (c.off_axis_deg > limits.max_off_axis_deg)
+    reasons.push_back(fmt::format("tilted or rolled {:.2f} deg off the tripod's pan axis as its "
+                                  "ring sees it (allowed {:.1f} deg)",
+                                  c.off_axis_deg, limits.max_off_axis_deg));
+  if (c.tripod_residual_m > limits.max_tripod_residual_m)
+    reasons.push_back(fmt::format("its camera stands {:.0f} mm from where the tripod's head puts "
+                                  "it (allowed {:.0f} mm)",
+                                  1000 * c.tripod_residual_m, 1000 * limits.max_tripod_residual_m));
   if (c.constraint < limits.min_constraint)
     reasons.push_back(fmt::format("geometry does not fix its pose (constraint {:.4f}, need >= "
                                   "{:.3f}: a bare wall or plane)",
@@ -250,7 +272,11 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   const auto above = [](double value, double limit, double good) {
     return std::clamp((value - limit) / (good - limit), 0.0, 1.0);
   };
+  const double off_axis = std::isfinite(c.off_axis_deg) ? c.off_axis_deg : 0.0;
+  const double off_tripod = std::isfinite(c.tripod_residual_m) ? c.tripod_residual_m : 0.0;
   const double confidence = std::min({below(c.correction_m, limits.max_correction_m),
+                                      below(off_axis, limits.max_off_axis_deg),
+                                      below(off_tripod, limits.max_tripod_residual_m),
                                       below(c.correction_deg, limits.max_correction_deg),
                                       below(c.free_space, limits.max_free_space),
                                       above(c.overlap, limits.min_overlap, 1.0),
@@ -262,6 +288,31 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
 
 }  // namespace
 
+// Smallest eigenvalue of the per-point normal matrix of the view's own points: rotation about
+// the camera centre only (tripod), or all six degrees of freedom with the rotation scaled by
+// the RMS lever arm (video).
+double pose_constraint(const PointCloud& cloud, bool rotation_only) {
+  if (!cloud.has_normals() || cloud.empty()) return 0.0;
+  double lever2 = 0.0;
+  for (const Eigen::Vector3f& p : cloud.positions) lever2 += p.squaredNorm();
+  lever2 /= static_cast<double>(cloud.size());
+  const double lever = std::sqrt(std::max(lever2, 1e-12));
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+  for (std::size_t k = 0; k < cloud.size(); ++k) {
+    const Eigen::Vector3d p = cloud.positions[k].cast<double>();
+    const Eigen::Vector3d n = cloud.normals[k].cast<double>();
+    Eigen::Matrix<double, 6, 1> j;
+    j << p.cross(n) / lever, n;
+    A += j * j.transpose();
+  }
+  A /= static_cast<double>(cloud.size());
+  if (rotation_only) {
+    const Eigen::Matrix3d R = A.topLeftCorner<3, 3>();
+    return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(R).eigenvalues()(0);
+  }
+  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(A).eigenvalues()(0);
+}
+
 void check_views(AlignmentState& s) {
   std::vector<std::size_t> views;
   for (std::size_t i = 0; i < s.n; ++i)
@@ -271,11 +322,15 @@ void check_views(AlignmentState& s) {
   if (views.size() < 2) return;
   std::vector<char> excluded(s.n, 0);
   const Eigen::Vector3d tripod_centre = median_centre(s, views);
+  const TripodConsistency tripod = tripod_consistency(s, views);
   for (int round = 0; round < std::max(1, s.options.view_check.rounds); ++round) {
     const ViewModel model = build_model(s, excluded);
     std::vector<ViewCheck> checks(views.size());
     tbb::parallel_for(std::size_t{0}, views.size(),
-                      [&](std::size_t k) { checks[k] = check_view(s, model, views[k], tripod_centre); });
+                      [&](std::size_t k) { checks[k] = check_view(s, model, views[k], tripod_centre,
+                                             tripod.off_axis_deg[views[k]],
+                                             tripod.residual_m[views[k]]);
+                      });
     bool changed = false;
     for (std::size_t k = 0; k < views.size(); ++k) {
       const char flagged = checks[k].checked && !checks[k].verified;

@@ -86,6 +86,14 @@ void check_options(const IcpOptions& o) {
       bad(fmt::format("the pose prior needs spreads >= 0 (not both 0) and a positive point "
                       "spread, got centre {} m, rotation {} deg, point {} m",
                       p->centre_sigma_m, p->rotation_sigma_deg, p->point_sigma_m));
+    if (p->hinge_axis && (!p->hinge_axis->allFinite() ||
+                          std::abs(p->hinge_axis->norm() - 1.0) > 1e-6 ||
+                          !(p->off_axis_sigma_deg > 0.0) || !std::isfinite(p->off_axis_sigma_deg) ||
+                          !(p->rotation_sigma_deg > 0.0)))
+      bad(fmt::format("the pose prior's hinge axis must be a unit vector with a positive "
+                      "off-axis spread and a positive rotation spread, got |axis| {}, off-axis "
+                      "{} deg, rotation {} deg",
+                      p->hinge_axis->norm(), p->off_axis_sigma_deg, p->rotation_sigma_deg));
   }
 }
 
@@ -453,8 +461,15 @@ PriorTerm prior_term(const IcpPosePrior& prior, const Isometry3d& T_c,
     const Eigen::Vector3d r = d.angle() * d.axis();
     const double w =
         scale * std::pow(prior.point_sigma_m / (prior.rotation_sigma_deg * kDegToRad), 2);
-    term.H.topLeftCorner<3, 3>() += w * Eigen::Matrix3d::Identity();
-    term.b.head<3>() += w * r;
+    Eigen::Matrix3d W = w * Eigen::Matrix3d::Identity();
+    if (prior.hinge_axis) {
+      const Eigen::Matrix3d along = *prior.hinge_axis * prior.hinge_axis->transpose();
+      const double w_off = static_cast<double>(correspondences) *
+                           std::pow(prior.point_sigma_m / (prior.off_axis_sigma_deg * kDegToRad), 2);
+      W = w * along + w_off * (Eigen::Matrix3d::Identity() - along);
+    }
+    term.H.topLeftCorner<3, 3>() += W;
+    term.b.head<3>() += W * r;
   }
   return term;
 }

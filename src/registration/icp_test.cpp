@@ -226,6 +226,42 @@ TEST(Icp, PosePriorHoldsWhatTheGeometryLeavesFree) {
   EXPECT_THROW(icp(bumpy, target, Isometry3d::Identity(), plain), InputError);
 }
 
+// A hinge splits the rotation prior: about the hinge axis as loose as rotation_sigma, off it
+// as firm as off_axis_sigma per correspondence. On a surface that fixes every direction, with
+// a prior 1 degree off the truth about the axis AND 1 degree off it: the loose prior leaves
+// both to the data (the truth); a very firm hinge keeps the off-axis degree the prior says and
+// still leaves the turn about the axis to the data.
+TEST(Icp, HingePriorHoldsTiltAndRollAndLeavesTheTurn) {
+  std::mt19937 rng(31);
+  const PointCloud target = sample_surface(rng, 6000, Isometry3d::Identity());
+  const PointCloud source = sample_surface(rng, 6000, Isometry3d::Identity());
+  const Eigen::Vector3d axis = Eigen::Vector3d::UnitY();
+  const Eigen::Vector3d off_axis = Eigen::Vector3d::UnitZ();
+  constexpr double kOne = M_PI / 180.0;
+  IcpOptions o = options(IcpMethod::PointToPlane);
+  IcpPosePrior prior;
+  prior.T_target_source.linear() = (Eigen::AngleAxisd(kOne, off_axis) *
+                                    Eigen::AngleAxisd(kOne, axis)).toRotationMatrix();
+  prior.centre_sigma_m = 0.03;
+  prior.rotation_sigma_deg = 5.0;
+  prior.point_sigma_m = 0.01;
+  o.pose_prior = prior;
+  const IcpResult loose = icp(source, target, Isometry3d::Identity(), o);
+  ASSERT_TRUE(loose.success) << loose.reason;
+  EXPECT_LT(rotation_difference_deg(loose.T_target_source, Isometry3d::Identity()), 0.05);
+  o.pose_prior->hinge_axis = axis;
+  o.pose_prior->off_axis_sigma_deg = 0.001;
+  const IcpResult held = icp(source, target, Isometry3d::Identity(), o);
+  ASSERT_TRUE(held.success) << held.reason;
+  const Eigen::AngleAxisd r(held.T_target_source.linear());
+  const Eigen::Vector3d w = r.angle() * r.axis() / kOne;  // degrees
+  EXPECT_NEAR(w.dot(off_axis), 1.0, 0.02);  // held to the prior
+  EXPECT_NEAR(w.dot(axis), 0.0, 0.05);      // left to the data
+  EXPECT_NEAR(w.dot(Eigen::Vector3d::UnitX()), 0.0, 0.02);
+  o.pose_prior->hinge_axis = Eigen::Vector3d(0.0, 2.0, 0.0);
+  EXPECT_THROW(icp(source, target, Isometry3d::Identity(), o), InputError);
+}
+
 // When every source point has an exact partner (the same samples, moved and shuffled),
 // point-to-point's fixed point is the truth itself.
 TEST(Icp, PointToPointIsExactOnSharedSamples) {

@@ -18,7 +18,10 @@
 //                   (view_check.max_tripod_offset_m from the centre) or turns further than a
 //                   step allows is rejected: a symmetric room fits itself turned by 90 or 180
 //                   degrees, and only the tripod tells those poses apart. Among the rest the
-//                   higher fitness (then lower RMSE) wins.
+//                   higher fitness (then lower RMSE) wins. Once the views on their rings span
+//                   45 degrees, the pan axis is voted from all of them (tripod_fit.hpp), and a
+//                   view whose geometry does not fix its rotation (view_check.min_constraint: a
+//                   wall seen square on) is held to its ring by a hinge prior (icp.hpp).
 //       odometry    frame-to-local-model tracking for long video: the model holds the last
 //                   `local_model_frames` keyframes; the initial guess is the constant-velocity
 //                   prediction, refined by coloured ICP (Park et al. 2017: photometric +
@@ -29,6 +32,9 @@
 //     left out of the trajectory (never given a guessed pose). After max_consecutive_failures
 //     failures in a row, the next usable frame starts a new piece; pieces are joined later by
 //     loop closure when possible, and reported otherwise.
+//  2b. Tripod turn (cumulative): the tracked turn held to the tripod (tripod_hold.cpp): each
+//     ring after the first corrected as a whole against the rings before it, then every view
+//     off its ring or off the head's nodal model registered again, held to it.
 //  3. Loop closure between keyframes (every frame in cumulative mode, every keyframe_interval
 //     registered frames in odometry mode): candidates are pairs far apart in the sequence
 //     (at least loop_min_separation frames; in odometry mode also beyond the local model's
@@ -41,7 +47,9 @@
 //     voxel_size; a verified candidate becomes an uncertain pose-graph edge.
 //  4. Pose graph (pose_graph.hpp): nodes are the registered frames, odometry edges join
 //     consecutive registered frames (information from their overlap), loop edges as above;
-//     wrong loop edges are pruned by the line process and the post-check.
+//     wrong loop edges are pruned by the line process and the post-check. On a tripod turn a
+//     solution that moves more views off the tripod than tracking left there is undone and
+//     its loop edges are reported rejected (they slide along walls; the tripod does not).
 // Randomness (RANSAC) is seeded by `seed`; the same input and options give the same result.
 
 #include <locard/alignment/pose_graph.hpp>
@@ -53,6 +61,7 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -77,7 +86,12 @@ enum class AlignmentMode { Cumulative, Odometry };
 //    neither the slide along it nor the turn about its normal.
 //  - tripod (cumulative mode, the tripod-turn scheme): the camera centre lies within
 //    max_tripod_offset_m of the median centre of all views; a view placed elsewhere is wrong
-//    whatever its overlap (a symmetric room fits itself turned by 180 degrees).
+//    whatever its overlap (a symmetric room fits itself turned by 180 degrees). And the pan
+//    axis as the camera sees it is its ring's (tripod_fit.hpp): a view tilted or rolled more
+//    than max_off_axis_deg off its ring is wrong however well it fits (a bare wall lets a
+//    view turn about its normal, and a wrong roll still fits it); and its camera centre lies
+//    within max_tripod_residual_m of the tripod's nodal model c = P + R d (tripod_fit.hpp:
+//    the head turns the camera about a pivot), as a wall lets a view slide along it.
 // A view that fails any test is flagged with the reason; flagged views leave the model and the
 // check runs again (at most `rounds` times), so one wrong view cannot condemn its neighbours.
 struct ViewCheckOptions {
@@ -87,6 +101,8 @@ struct ViewCheckOptions {
   double max_free_space = 0.1;
   double min_constraint = 0.01;
   double max_tripod_offset_m = 0.25;
+  double max_off_axis_deg = 1.0;
+  double max_tripod_residual_m = 0.04;
   int rounds = 3;
 };
 std::string_view to_string(AlignmentMode mode);
@@ -161,6 +177,10 @@ struct ViewCheck {
   double constraint = 0.0; // smallest normalised eigenvalue of its point-to-plane matrix
   double correction_m = 0.0;    // leave-one-out ICP correction of its pose
   double correction_deg = 0.0;
+  // Tripod turn: angle between the pan axis as the view sees it and its ring's; NaN when the
+  // views make no tripod fit (video, or too few).
+  double off_axis_deg = std::numeric_limits<double>::quiet_NaN();
+  double tripod_residual_m = std::numeric_limits<double>::quiet_NaN();  // from the nodal model
   std::string reason;      // why flagged; empty when verified
 };
 

@@ -48,6 +48,11 @@
 // alone what the geometry fixes firmly and decides a direction the geometry leaves free (a bare
 // wall's slide and its turn about its normal) or only half fixes (a periodic texture). H += w J^T J and b += w J^T r join the sums before the solve;
 // fitness, RMSE and the information matrix stay those of the data alone.
+// With a hinge axis a (unit, target frame; a tripod's pan axis) the rotation prior splits:
+// W_R = w_R a a^T + w_off (I - a a^T), w_off = (point_sigma / off_axis_sigma)^2 times the
+// pass's correspondence count always (a hinge turns about its axis only: that is physical
+// whatever per_correspondence says), so the turn about a stays as free as rotation_sigma says
+// and tilt and roll are held to the prior.
 //
 // Stopping. After each update: converged when the step is below rotation_eps_deg AND
 // translation_eps_m, or (Open3D's criteria) when fitness and inlier RMSE changed by less than
@@ -106,6 +111,8 @@ struct IcpPosePrior {
   double rotation_sigma_deg = 5.0;  // spread of the rotation; 0: not used
   double point_sigma_m = 0.01;      // spread of one correspondence's residual
   bool per_correspondence = false;  // weight times the pass's correspondences
+  std::optional<Eigen::Vector3d> hinge_axis;  // unit, target frame; see "Pose prior"
+  double off_axis_sigma_deg = 0.5;            // spread of tilt and roll about the hinge
 };
 
 struct IcpOptions {
