@@ -56,19 +56,14 @@ struct TrackedState {
   }
 };
 
-double worst_rotation_deg(const TrackedState& t, const std::vector<std::size_t>& views) {
-  double worst = 0.0;
-  for (std::size_t i : views)
-    worst = std::max(worst, rotation_difference_deg(t.state.tracked_pose(i),
-                                                    t.state.sequence.ground_truth[i].T_world_camera));
-  return worst;
-}
-
-double worst_translation_m(const TrackedState& t, const std::vector<std::size_t>& views) {
-  double worst = 0.0;
-  for (std::size_t i : views)
-    worst = std::max(worst, translation_difference_m(t.state.tracked_pose(i),
-                                                     t.state.sequence.ground_truth[i].T_world_camera));
+// The largest rotation (degrees) and translation (metres) error over `views`.
+std::pair<double, double> worst_error(const TrackedState& t, const std::vector<std::size_t>& views) {
+  std::pair<double, double> worst{0.0, 0.0};
+  for (std::size_t i : views) {
+    const Isometry3d& truth = t.state.sequence.ground_truth[i].T_world_camera;
+    worst.first = std::max(worst.first, rotation_difference_deg(t.state.tracked_pose(i), truth));
+    worst.second = std::max(worst.second, translation_difference_m(t.state.tracked_pose(i), truth));
+  }
   return worst;
 }
 
@@ -84,7 +79,7 @@ TEST(RingAlignment, UndoesACommonTiltAndABlockMoveOfTheUpperRing) {
     auto& T = t.state.result.frames[i].T_world_camera_icp;
     T = error.apply(*T, rings.centre);
   }
-  ASSERT_GT(worst_rotation_deg(t, rings.upper), 1.0);
+  ASSERT_GT(worst_error(t, rings.upper).first, 1.0);
   const std::optional<RingCorrection> c = align_ring(t.state, rings.upper, rings.lower, rings.centre);
   ASSERT_TRUE(c);
   EXPECT_GT(c->correspondences, 1000u);
@@ -92,8 +87,8 @@ TEST(RingAlignment, UndoesACommonTiltAndABlockMoveOfTheUpperRing) {
     auto& T = t.state.result.frames[i].T_world_camera_icp;
     T = c->apply(*T, rings.centre);
   }
-  EXPECT_LT(worst_rotation_deg(t, rings.upper), 0.1);
-  EXPECT_LT(worst_translation_m(t, rings.upper), 0.005);
+  EXPECT_LT(worst_error(t, rings.upper).first, 0.1);
+  EXPECT_LT(worst_error(t, rings.upper).second, 0.005);
 }
 
 TEST(RingAlignment, ARightRingStaysWhereItIs) {
@@ -107,8 +102,8 @@ TEST(RingAlignment, ARightRingStaysWhereItIs) {
     auto& T = t.state.result.frames[i].T_world_camera_icp;
     T = c->apply(*T, rings.centre);
   }
-  EXPECT_LT(worst_rotation_deg(t, rings.upper), 0.05);
-  EXPECT_LT(worst_translation_m(t, rings.upper), 0.002);
+  EXPECT_LT(worst_error(t, rings.upper).first, 0.05);
+  EXPECT_LT(worst_error(t, rings.upper).second, 0.002);
 }
 
 }  // namespace
