@@ -181,7 +181,12 @@ int run_cloud_mesh(const MeshOptions& o, const GlobalOptions& global,
   // Neighbourhoods scale with the sampling: about 3 voxels for normals and segments.
   options.normal_radius = std::max(0.05f, static_cast<float>(3.0 * o.voxel));
   options.segmentation.radius = options.normal_radius;
-  CloudMeshingResult r = mesh_point_cloud(merged, options);
+  CloudMeshingResult r;
+  try {
+    r = mesh_point_cloud(merged, options);
+  } catch (const InputError& e) {
+    throw_input_error(o.input, e.what());  // the input's geometry cannot be meshed this way
+  }
   TriangleMesh& mesh = r.mesh;
   const std::size_t raw_triangles = mesh.triangle_count();
   const ComponentReport components = remove_small_components(mesh, o.min_component);

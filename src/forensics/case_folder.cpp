@@ -62,7 +62,7 @@ json parse_json_file(const fs::path& path) {
   const std::string text = read_text(path);
   try {
     return json::parse(text);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // syntax, and numbers out of range (1e400)
     throw_input_error(path, fmt::format("not valid JSON: {}", e.what()));
   }
 }
@@ -123,7 +123,7 @@ std::size_t CaseFolder::append_log_step(const LogStep& step) {
   json parameters;
   try {
     parameters = json::parse(step.parameters_json.empty() ? "{}" : step.parameters_json);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // syntax, and numbers out of range (1e400)
     throw InputError(fmt::format("log step '{}': parameters are not valid JSON: {}", step.step,
                                  e.what()));
   }
@@ -226,7 +226,7 @@ VerifyReport verify_case(const fs::path& root, bool check_inputs) {
     json line;
     try {
       line = json::parse(lines[i]);
-    } catch (const json::parse_error&) {
+    } catch (const json::exception&) {
       report.problems.push_back({Kind::LogChain, kLog, fmt::format("line {} is not JSON", i + 1)});
       continue;
     }

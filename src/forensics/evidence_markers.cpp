@@ -92,7 +92,7 @@ MarkerSet read_markers(const std::filesystem::path& path) {
   json j;
   try {
     j = json::parse(in);
-  } catch (const json::parse_error& e) {
+  } catch (const json::exception& e) {  // syntax, and numbers out of range (1e400)
     throw_input_error(path, fmt::format("not valid JSON: {}", e.what()));
   }
   const std::string where = path.string();

@@ -42,7 +42,7 @@ json read_json_or_null(const fs::path& p) {
   std::ifstream in(p);
   try {
     return json::parse(in);
-  } catch (const json::parse_error&) {
+  } catch (const json::exception&) {
     return nullptr;
   }
 }
@@ -456,7 +456,7 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
       json j;
       try {
         j = json::parse(line);
-      } catch (const json::parse_error&) {
+      } catch (const json::exception&) {
         continue;
       }
       h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td class=n>{:.2f}</td><td "

@@ -3,6 +3,7 @@
 #include <locard/core/atomic_file.hpp>
 #include <locard/core/error.hpp>
 
+#include "io/text_lines.hpp"
 #include "png_fast.hpp"
 
 #include <bit>
@@ -44,7 +45,7 @@ bool guarded(std::jmp_buf& jump, Step& step) {
 class CFile {
  public:
   CFile(const std::filesystem::path& path, const char* mode)
-      : file_(std::fopen(path.c_str(), mode)) {
+      : file_((io_detail::require_regular_file(path), std::fopen(path.c_str(), mode))) {
     if (!file_) {
       const std::string reason = std::error_code(errno, std::generic_category()).message();
       throw_input_error(path, "cannot open image file (" + reason + ")");

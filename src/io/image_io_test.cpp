@@ -211,7 +211,7 @@ TEST(ImageIo, MissingFileNamesTheFile) {
   const fs::path path = test::scratch_dir() / "nothing-here.png";
   EXPECT_THAT(
       [&] { read_depth_image(path); },
-      ThrowsMessage<InputError>(AllOf(HasSubstr("nothing-here.png"), HasSubstr("No such file"))));
+      ThrowsMessage<InputError>(AllOf(HasSubstr("nothing-here.png"), HasSubstr("no such file"))));
   EXPECT_THAT([&] { read_color_image(path); },
               ThrowsMessage<InputError>(HasSubstr("nothing-here.png")));
   EXPECT_THAT([&] { read_image_info(path); },

@@ -1,4 +1,5 @@
 #include "io/json_file.hpp"
+#include "io/text_lines.hpp"
 
 #include <locard/core/error.hpp>
 
@@ -9,11 +10,11 @@
 namespace locard::io_detail {
 
 nlohmann::json read_json_file(const std::filesystem::path& path) {
-  std::ifstream in(path);
-  if (!in) throw_input_error(path, "cannot be read");
+  const std::string text = read_whole_file(path);
   try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
+    return nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {
+    // Syntax errors and numbers out of range (1e400) alike.
     throw_input_error(path, fmt::format("not valid JSON: {}", e.what()));
   }
 }

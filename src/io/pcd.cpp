@@ -4,6 +4,7 @@
 // whose uncompressed bytes hold each field for all points in turn (SoA), as PCL writes it.
 // Both are decoded column by column with the same loop: only base and stride differ.
 
+#include "io/text_lines.hpp"
 #include "io/lzf.hpp"
 
 #include <locard/core/atomic_file.hpp>
@@ -49,19 +50,6 @@ struct PcdHeader {
   std::size_t body_offset = 0;
   long body_line = 0;
 };
-
-std::string read_whole_file(const fs::path& path) {
-  if (fs::is_directory(path)) throw_input_error(path, "is a folder, not a PCD file");
-  std::ifstream in(path, std::ios::binary);  // read-only
-  if (!in) throw_input_error(path, fs::exists(path) ? "cannot open for reading" : "no such file");
-  std::error_code ec;
-  const auto size = fs::file_size(path, ec);
-  if (ec) throw_input_error(path, "cannot read file size: " + ec.message());
-  std::string data(size, '\0');
-  in.read(data.data(), static_cast<std::streamsize>(size));
-  if (static_cast<std::uintmax_t>(in.gcount()) != size) throw_input_error(path, "read failed");
-  return data;
-}
 
 std::vector<std::string_view> split_words(std::string_view line) {
   std::vector<std::string_view> words;
@@ -534,7 +522,7 @@ std::string make_header(const std::vector<OutField>& fields, std::size_t n, bool
 }  // namespace
 
 PointCloud read_pcd(const fs::path& path) {
-  const std::string data = read_whole_file(path);
+  const std::string data = io_detail::read_whole_file(path);
   const PcdHeader header = parse_header(path, data);
   const Layout layout = make_layout(path, header);
   const std::string_view body = std::string_view(data).substr(header.body_offset);

@@ -6,6 +6,8 @@
 #include <locard/core/error.hpp>
 #include <locard/io/ply.hpp>
 
+#include "io/text_lines.hpp"
+
 #include <algorithm>
 #include <array>
 #include <bit>
@@ -122,19 +124,6 @@ std::vector<std::string_view> split_words(std::string_view line) {
     if (i > start) words.push_back(line.substr(start, i - start));
   }
   return words;
-}
-
-std::string read_whole_file(const fs::path& path) {
-  if (fs::is_directory(path)) throw_input_error(path, "is a folder, not a PLY file");
-  std::ifstream in(path, std::ios::binary);  // read-only
-  if (!in) throw_input_error(path, fs::exists(path) ? "cannot open for reading" : "no such file");
-  std::error_code ec;
-  const auto size = fs::file_size(path, ec);
-  if (ec) throw_input_error(path, "cannot read file size: " + ec.message());
-  std::string data(size, '\0');
-  in.read(data.data(), static_cast<std::streamsize>(size));
-  if (static_cast<std::uintmax_t>(in.gcount()) != size) throw_input_error(path, "read failed");
-  return data;
 }
 
 PlyHeader parse_header(const fs::path& path, std::string_view data) {
@@ -571,7 +560,7 @@ void read_rows(const fs::path& path, Cursor& cur, const PlyElement& e, VertexSto
 }
 
 PlyData read_ply_data(const fs::path& path, bool want_faces) {
-  const std::string data = read_whole_file(path);
+  const std::string data = io_detail::read_whole_file(path);
   const PlyHeader header = parse_header(path, data);
   const auto vertex_it = std::find_if(header.elements.begin(), header.elements.end(),
                                       [](const PlyElement& e) { return e.name == "vertex"; });

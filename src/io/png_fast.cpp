@@ -1,3 +1,4 @@
+#include "io/text_lines.hpp"
 #include "png_fast.hpp"
 
 #include <locard/core/error.hpp>
@@ -81,6 +82,7 @@ void unfilter_row(int type, const std::uint8_t* in, const std::uint8_t* prev, st
 }  // namespace
 
 std::vector<std::uint8_t> read_whole_file(const std::filesystem::path& path) {
+  io_detail::require_regular_file(path);
   std::FILE* f = std::fopen(path.c_str(), "rb");
   if (!f) throw_input_error(path, std::string("cannot open: ") + std::strerror(errno));
   std::vector<std::uint8_t> bytes;

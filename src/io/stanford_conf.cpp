@@ -5,6 +5,8 @@
 #include <locard/core/error.hpp>
 #include <locard/io/stanford_conf.hpp>
 
+#include "io/text_lines.hpp"
+
 #include <array>
 #include <charconv>
 #include <cmath>
@@ -55,7 +57,7 @@ Isometry3d parse_pose(const fs::path& path, long line_no, std::span<const std::s
 }  // namespace
 
 StanfordConf read_stanford_conf(const fs::path& path) {
-  if (fs::is_directory(path)) throw_input_error(path, "is a folder, not a .conf file");
+  io_detail::require_regular_file(path);
   std::ifstream in(path);  // read-only
   if (!in) throw_input_error(path, fs::exists(path) ? "cannot open for reading" : "no such file");
   StanfordConf conf;

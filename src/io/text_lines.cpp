@@ -55,15 +55,29 @@ std::optional<std::int64_t> parse_integer(std::string_view token) {
   return value;
 }
 
-std::string read_text_file(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) {
-    if (!std::filesystem::exists(path)) throw_input_error(path, "file not found");
-    throw_input_error(path, "cannot open file for reading");
-  }
-  std::string text{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-  if (in.bad()) throw_input_error(path, "read failed");
-  return text;
+void require_regular_file(const std::filesystem::path& path) {
+  namespace fs = std::filesystem;
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (ec || status.type() == fs::file_type::not_found) throw_input_error(path, "no such file");
+  if (status.type() == fs::file_type::directory)
+    throw_input_error(path, "is a folder, not a file");
+  if (status.type() != fs::file_type::regular)
+    throw_input_error(path, "is not a regular file (a pipe, socket or device): refused, as "
+                            "reading it could block or never end");
+}
+
+std::string read_whole_file(const std::filesystem::path& path) {
+  require_regular_file(path);
+  std::ifstream in(path, std::ios::binary);  // read-only
+  if (!in) throw_input_error(path, "cannot open for reading");
+  std::error_code ec;
+  const auto size = std::filesystem::file_size(path, ec);
+  if (ec) throw_input_error(path, "cannot read file size: " + ec.message());
+  std::string data(size, '\0');
+  in.read(data.data(), static_cast<std::streamsize>(size));
+  if (static_cast<std::uintmax_t>(in.gcount()) != size) throw_input_error(path, "read failed");
+  return data;
 }
 
 DataLines::DataLines(const std::filesystem::path& path, bool numeric_data)

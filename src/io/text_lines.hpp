@@ -18,8 +18,13 @@ std::vector<std::string_view> split_tokens(std::string_view line);
 std::optional<double> parse_number(std::string_view token);
 std::optional<std::int64_t> parse_integer(std::string_view token);
 
-// The whole file; InputError naming it when it cannot be read.
-std::string read_text_file(const std::filesystem::path& path);
+// Every reader opens its files through these. Only a regular file (after links) is opened: a
+// FIFO or a device named in a list would block the reader or feed it without end, a folder
+// would fail later with a stranger message. InputError naming the path otherwise.
+void require_regular_file(const std::filesystem::path& path);
+// The whole file, bytes as they are; InputError naming it when it cannot be read.
+std::string read_whole_file(const std::filesystem::path& path);
+inline std::string read_text_file(const std::filesystem::path& path) { return read_whole_file(path); }
 
 // Walks the data lines of a text table. Blank lines and '#' comments are skipped anywhere;
 // before the first data line, a line whose first token is not a number is a header and is

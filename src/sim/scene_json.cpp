@@ -377,6 +377,14 @@ Scene parse_scene(std::string_view json_text, const fs::path& source, const fs::
     std::string what = e.what();
     if (const auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
     throw_input_error(source, "not valid JSON: " + what, line_of(json_text, e.byte ? e.byte - 1 : 0));
+  } catch (const json::out_of_range& e) {
+    // "number overflow parsing '1e400'": a number beyond the range of a double.
+    std::string what = e.what();
+    if (const auto p = what.find("] "); p != std::string::npos) what = what.substr(p + 2);
+    const std::size_t q0 = what.find('\''), q1 = what.rfind('\'');
+    const std::size_t at = q0 != q1 ? json_text.find(what.substr(q0 + 1, q1 - q0 - 1)) : 0;
+    throw_input_error(source, "not valid JSON: " + what + " (not a finite double)",
+                      line_of(json_text, at == std::string_view::npos ? 0 : at));
   }
   ObjectReader r(j, "scene", source);
   Scene scene;

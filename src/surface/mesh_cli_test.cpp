@@ -4,6 +4,7 @@
 
 #include "test_support.hpp"
 
+#include <Eigen/Core>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -74,6 +75,34 @@ TEST_F(MeshCli, RefusesBadInputWithExitStatusTwo) {
   EXPECT_EQ(test::run_cli("eval-mesh /nonexistent.ply '" + (*scan_ / "scene.ply").string() + "'")
                 .exit_code,
             2);
+}
+
+// Issue 14: CGAL's Poisson solver crashed (SIGSEGV) on points that span no volume. A flat grid
+// and a straight line are now clear errors naming what is wrong, exit 2, nothing written; a
+// slightly noisy plane still meshes.
+TEST_F(MeshCli, PoissonOnAFlatGridOrALineIsAnErrorNotACrash) {
+  const fs::path dir = test::scratch_dir();
+  const auto write_ply = [&](const std::string& name, auto point) {
+    std::ofstream f(dir / name);
+    f << "ply\nformat ascii 1.0\nelement vertex 900\nproperty float x\nproperty float y\n"
+         "property float z\nend_header\n";
+    for (int i = 0; i < 900; ++i) {
+      const Eigen::Vector3f p = point(i);
+      f << p.x() << ' ' << p.y() << ' ' << p.z() << '\n';
+    }
+  };
+  write_ply("grid.ply", [](int i) { return Eigen::Vector3f(0.01f * (i % 30), 0.01f * (i / 30), 0.f); });
+  write_ply("line.ply", [](int i) { return Eigen::Vector3f(0.001f * i, 0.f, 0.f); });
+  for (const char* name : {"grid", "line"}) {
+    const fs::path out = dir / (std::string(name) + "-mesh");
+    const auto r = test::run_cli("mesh '" + (dir / (std::string(name) + ".ply")).string() +
+                                 "' -o '" + out.string() + "' --method poisson");
+    EXPECT_EQ(r.exit_code, 2) << name << ": " << r.output;
+    EXPECT_NE(r.output.find(name == std::string("grid") ? "lie on a plane" : "lie on a line"),
+              std::string::npos)
+        << r.output;
+    EXPECT_FALSE(fs::exists(out) && !fs::is_empty(out)) << name;
+  }
 }
 
 TEST_F(MeshCli, TakesPosesFromATumTrajectory) {

@@ -10,7 +10,9 @@
 #include <CGAL/Surface_mesh.h>
 #include <CGAL/poisson_surface_reconstruction.h>
 #include <CGAL/property_map.h>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <fmt/format.h>
 
 #include <algorithm>
 #include <cmath>
@@ -78,6 +80,39 @@ double mean_neighbour_spacing(const KdTree& tree, int k) {
   return n ? sum / static_cast<double>(n) : 0.0;
 }
 
+// CGAL's Poisson solver dereferences a null cell (SIGSEGV) when the points span no volume:
+// its Delaunay refinement of an exactly flat or straight set has no tetrahedra to solve on. The
+// spread of the points along their principal axes tells: thinner than kFlatRatio of the
+// widest spread is a plane (or a line, when two axes are).
+constexpr double kFlatRatio = 1e-4;
+
+void check_spans_a_volume(const std::vector<Eigen::Vector3f>& positions) {
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3f& p : positions) mean += p.cast<double>();
+  mean /= static_cast<double>(positions.size());
+  Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3f& p : positions) {
+    const Eigen::Vector3d d = p.cast<double>() - mean;
+    covariance += d * d.transpose();
+  }
+  covariance /= static_cast<double>(positions.size());
+  const Eigen::Vector3d spread =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(covariance).eigenvalues().cwiseMax(0.0).cwiseSqrt();
+  const double widest = spread(2);
+  if (!(widest > 0.0))
+    throw InputError("poisson_mesh: every point is at the same place; a surface needs points "
+                     "that span a volume");
+  if (spread(1) < kFlatRatio * widest)
+    throw InputError(fmt::format("poisson_mesh: the points lie on a line (spread {:.3g} m across, "
+                                 "{:.3g} m along); a Poisson surface needs points that span a "
+                                 "volume", spread(1), widest));
+  if (spread(0) < kFlatRatio * widest)
+    throw InputError(fmt::format("poisson_mesh: the points lie on a plane (spread {:.3g} m off "
+                                 "it, {:.3g} m along it); a Poisson surface needs points that "
+                                 "span a volume - use the Delaunay method for a flat patch",
+                                 spread(0), widest));
+}
+
 }  // namespace
 
 TriangleMesh poisson_mesh(const PointCloud& cloud, const PoissonOptions& options) {
@@ -98,6 +133,7 @@ TriangleMesh poisson_mesh(const PointCloud& cloud, const PoissonOptions& options
   if (points.size() < 10)
     throw InputError("poisson_mesh: at least 10 finite points are needed, got " +
                      std::to_string(points.size()));
+  check_spans_a_volume(positions);
   const KdTree tree(positions);
   const double spacing = options.spacing > 0.0 ? options.spacing : mean_neighbour_spacing(tree, 6);
   const double trim = options.trim_distance > 0.0 ? options.trim_distance : 2.0 * spacing;
