@@ -38,6 +38,11 @@ TriangleMesh read_mesh_file(const std::string& path, const char* which) {
   TriangleMesh mesh = read_ply_mesh(path);
   if (mesh.triangles.empty())
     throw_input_error(path, fmt::format("the {} has no triangles", which));
+  for (std::size_t i = 0; i < mesh.vertices.size(); ++i)
+    if (!mesh.vertices[i].allFinite())
+      throw_input_error(path, fmt::format("vertex {} of the {} is not a finite number ({}, {}, {})",
+                                          i, which, mesh.vertices[i].x(), mesh.vertices[i].y(),
+                                          mesh.vertices[i].z()));
   return mesh;
 }
 
@@ -72,7 +77,13 @@ int run_eval_mesh(const EvalMeshOptions& o) {
     counted = fmt::format("the surface seen by {} views of {}", options.views.size(),
                           views.string());
   }
-  const MeshEvaluation r = evaluate_mesh(gt, mesh, options);
+  const MeshEvaluation r = [&] {
+    try {
+      return evaluate_mesh(gt, mesh, options);
+    } catch (const InputError& e) {  // what the ground truth asks for (its sampling budget)
+      throw_input_error(o.ground_truth, e.what());
+    }
+  }();
   if (!o.samples.empty()) write_ply(o.samples, r.samples);
   if (o.json) {
     std::printf("%s\n", nlohmann::json{{"ground_truth", o.ground_truth},

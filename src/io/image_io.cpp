@@ -123,6 +123,13 @@ class PngReader {
     height_ = static_cast<int>(png_get_image_height(h_.png, h_.info));
     bit_depth_ = png_get_bit_depth(h_.png, h_.info);
     color_type_ = png_get_color_type(h_.png, h_.info);
+    std::error_code ec;
+    const auto file_bytes = std::filesystem::file_size(path, ec);
+    const int channels = png_get_channels(h_.png, h_.info);
+    detail::check_image_budget(path, static_cast<std::uint64_t>(width_),
+                               static_cast<std::uint64_t>(height_),
+                               static_cast<std::uint64_t>(std::max(1, channels * bit_depth_ / 8)),
+                               ec ? 0 : file_bytes);
   }
   PngReader(const PngReader&) = delete;
   PngReader& operator=(const PngReader&) = delete;

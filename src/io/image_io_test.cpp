@@ -299,3 +299,68 @@ TEST(ImageIo, WriteIntoMissingFolderOrEmptyImageFails) {
 
 }  // namespace
 }  // namespace locard
+
+namespace locard {
+namespace {
+
+std::string fmt_name(std::uint32_t width, bool rgb, bool interlaced) {
+  return "bomb-" + std::to_string(width) + (rgb ? "-rgb" : "-gray") + (interlaced ? "-adam7" : "") +
+         ".png";
+}
+
+// A PNG of signature, IHDR (claimed size, 16-bit gray or 8-bit RGB, optionally interlaced so
+// libpng decodes it), an empty IDAT and IEND: 69 bytes.
+void write_png_bomb(const fs::path& path, std::uint32_t width, std::uint32_t height,
+                    bool rgb, bool interlaced) {
+  std::vector<unsigned char> bytes{0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  const auto be32 = [&](std::uint32_t v) {
+    for (int s = 24; s >= 0; s -= 8) bytes.push_back(static_cast<unsigned char>(v >> s));
+  };
+  const auto chunk = [&](const char* type, const std::vector<unsigned char>& data) {
+    be32(static_cast<std::uint32_t>(data.size()));
+    const std::size_t start = bytes.size();
+    bytes.insert(bytes.end(), type, type + 4);
+    bytes.insert(bytes.end(), data.begin(), data.end());
+    be32(static_cast<std::uint32_t>(
+        crc32(0, bytes.data() + start, static_cast<uInt>(bytes.size() - start))));
+  };
+  std::vector<unsigned char> ihdr;
+  for (std::uint32_t v : {width, height})
+    for (int s = 24; s >= 0; s -= 8) ihdr.push_back(static_cast<unsigned char>(v >> s));
+  ihdr.insert(ihdr.end(), {static_cast<unsigned char>(rgb ? 8 : 16),
+                           static_cast<unsigned char>(rgb ? 2 : 0), 0, 0,
+                           static_cast<unsigned char>(interlaced ? 1 : 0)});
+  chunk("IHDR", ihdr);
+  chunk("IDAT", {0x78, 0x9c, 0x03, 0x00, 0x00, 0x00, 0x00, 0x01});  // zlib of nothing
+  chunk("IEND", {});
+  write_bytes(path, std::vector<char>(bytes.begin(), bytes.end()));
+}
+
+// Issue 14: a 69-byte PNG claiming 30000 x 30000 made the fast path allocate 1.8 GB before
+// inflating, and libpng (65535 x 65535) 8 GB. The header is now checked against a pixel
+// budget and against what its compressed bytes can hold, before anything is allocated.
+TEST(ImageIo, PngClaimingMorePixelsThanItHoldsIsRefusedBeforeAllocating) {
+  const fs::path dir = test::scratch_dir();
+  struct Case {
+    std::uint32_t width, height;
+    bool rgb, interlaced;
+    const char* says;
+  };
+  for (const Case& c : {Case{30000, 30000, false, false, "at most"},
+                        Case{65535, 65535, false, true, "at most"},
+                        Case{8000, 8000, false, false, "more than its"},
+                        Case{8000, 8000, true, true, "more than its"}}) {
+    const fs::path path = dir / fmt_name(c.width, c.rgb, c.interlaced);
+    write_png_bomb(path, c.width, c.height, c.rgb, c.interlaced);
+    const auto read = [&] {
+      if (c.rgb) read_color_image(path);
+      else read_depth_image(path);
+    };
+    EXPECT_THAT(read, ThrowsMessage<InputError>(
+                          AllOf(HasSubstr(path.filename().string()), HasSubstr(c.says))))
+        << path;
+  }
+}
+
+}  // namespace
+}  // namespace locard

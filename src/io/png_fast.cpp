@@ -3,6 +3,7 @@
 
 #include <locard/core/error.hpp>
 
+#include <fmt/format.h>
 #include <libdeflate.h>
 
 #include <bit>
@@ -81,6 +82,22 @@ void unfilter_row(int type, const std::uint8_t* in, const std::uint8_t* prev, st
 
 }  // namespace
 
+void check_image_budget(const std::filesystem::path& path, std::uint64_t width,
+                        std::uint64_t height, std::uint64_t bytes_per_pixel,
+                        std::uint64_t compressed_bytes) {
+  constexpr std::uint64_t kMaxImagePixels = std::uint64_t{1} << 27;
+  constexpr std::uint64_t kMaxDeflateRatio = 1032;
+  const std::uint64_t pixels = width * height;  // both < 2^32: no overflow
+  if (pixels > kMaxImagePixels)
+    throw_input_error(path, fmt::format("the header claims {} x {} pixels (at most {} M pixels "
+                                        "are read)", width, height, kMaxImagePixels >> 20));
+  const std::uint64_t decoded = pixels * bytes_per_pixel + height;  // a filter byte per row
+  if (decoded > kMaxDeflateRatio * compressed_bytes + 1024)
+    throw_input_error(path, fmt::format("corrupt or truncated PNG: the header claims {} x {} "
+                                        "pixels, more than its {} bytes of data can hold",
+                                        width, height, compressed_bytes));
+}
+
 std::vector<std::uint8_t> read_whole_file(const std::filesystem::path& path) {
   io_detail::require_regular_file(path);
   std::FILE* f = std::fopen(path.c_str(), "rb");
@@ -156,6 +173,7 @@ bool decode_png_fast(const std::filesystem::path& path, const std::vector<std::u
   const std::size_t bpp = want == PngFastLayout::Gray16 ? 2 : 3;
   const std::size_t row_bytes = bpp * width;
   const std::size_t expected = std::size_t{height} * (1 + row_bytes);
+  check_image_budget(path, width, height, bpp, idat_size);
   std::vector<std::uint8_t> filtered(expected);
   std::size_t produced = 0;
   const libdeflate_result r = libdeflate_zlib_decompress(thread_decompressor(), idat, idat_size,

@@ -31,6 +31,15 @@ struct PngFastImage {
 bool decode_png_fast(const std::filesystem::path& path, const std::vector<std::uint8_t>& bytes,
                      PngFastLayout want, PngFastImage& out);
 
+// The budget an image header must fit before anything is allocated for it: at most
+// kMaxImagePixels pixels (134 M: 11585 x 11585, far beyond any depth or colour frame), and
+// no more decoded bytes than the compressed data can hold (deflate expands at most 1032:1).
+// A 69-byte PNG claiming 65535 x 65535 once made both decoders allocate gigabytes. InputError
+// naming the file otherwise.
+void check_image_budget(const std::filesystem::path& path, std::uint64_t width,
+                        std::uint64_t height, std::uint64_t bytes_per_pixel,
+                        std::uint64_t compressed_bytes);
+
 // Reads a whole file; InputError naming the file when it cannot be read.
 std::vector<std::uint8_t> read_whole_file(const std::filesystem::path& path);
 

@@ -105,6 +105,26 @@ TEST_F(MeshCli, PoissonOnAFlatGridOrALineIsAnErrorNotACrash) {
   }
 }
 
+// Issue 14: one ground-truth vertex at inf, nan or 1e10 m made eval-mesh sample a huge
+// triangle (12-16 GB, then bad_alloc or a hang). Now exit 2 at once, the file named.
+TEST_F(MeshCli, EvalMeshRefusesAFarOrNonFiniteVertex) {
+  const fs::path dir = test::scratch_dir();
+  const auto write_mesh = [&](const fs::path& path, const std::string& fourth) {
+    std::ofstream(path) << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\n"
+                           "property float y\nproperty float z\nelement face 2\n"
+                           "property list uchar int vertex_indices\nend_header\n"
+                           "0 0 0\n1 0 0\n0 1 0\n" << fourth << "\n3 0 1 2\n3 1 3 2\n";
+  };
+  write_mesh(dir / "mesh.ply", "1 1 0");
+  for (const std::string v : {"inf", "nan", "1e10"}) {
+    const fs::path gt = dir / ("gt-" + v + ".ply");
+    write_mesh(gt, v + " " + v + " 0");
+    const auto r = test::run_cli("eval-mesh '" + gt.string() + "' '" + (dir / "mesh.ply").string() + "'");
+    EXPECT_EQ(r.exit_code, 2) << v << ": " << r.output;
+    EXPECT_NE(r.output.find("gt-" + v + ".ply"), std::string::npos) << r.output;
+  }
+}
+
 TEST_F(MeshCli, TakesPosesFromATumTrajectory) {
   // The scan's own ground truth written as a separate trajectory: the same mesh as fusing at
   // the ground truth directly.

@@ -8,6 +8,8 @@
 
 #include <tbb/parallel_for.h>
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
 #include <numeric>
@@ -100,7 +102,24 @@ std::vector<Eigen::Vector3f> sample_surface_with_normals(const TriangleMesh& mes
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   const double per_area = 1.0 / (spacing * spacing);
+  // The budget before any allocation: one far or non-finite vertex makes a triangle whose
+  // area asks for billions of samples (a vertex at 1e10 m once took 16 GB).
+  constexpr double kMaxSamples = 5e7;
+  double area = 0.0;
+  for (const auto& t : mesh.triangles)
+    area += 0.5 * (mesh.vertices[t[1]] - mesh.vertices[t[0]])
+                      .cast<double>()
+                      .cross((mesh.vertices[t[2]] - mesh.vertices[t[0]]).cast<double>())
+                      .norm();
+  if (!std::isfinite(area))
+    throw InputError("evaluate_mesh: the ground truth has a vertex that is not a finite number");
+  if (area * per_area > kMaxSamples)
+    throw InputError(fmt::format("evaluate_mesh: the ground truth's {:.4g} m2 at {} m spacing "
+                                 "needs {:.3g} samples (at most {:.0g}): a vertex far off the "
+                                 "scene, or a larger spacing",
+                                 area, spacing, area * per_area, kMaxSamples));
   std::vector<Eigen::Vector3f> out;
+  out.reserve(static_cast<std::size_t>(area * per_area) + mesh.triangles.size());
   for (const auto& t : mesh.triangles) {
     const Eigen::Vector3d a = mesh.vertices[t[0]].cast<double>();
     const Eigen::Vector3d b = mesh.vertices[t[1]].cast<double>();
