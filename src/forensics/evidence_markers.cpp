@@ -1,5 +1,7 @@
 #include <locard/forensics/evidence_markers.hpp>
 
+#include "forensics/csv_field.hpp"
+
 #include "forensics/json_util.hpp"
 
 #include <locard/core/atomic_file.hpp>
@@ -17,13 +19,6 @@ namespace locard::forensics {
 namespace {
 
 using nlohmann::json;
-
-std::string csv_field(const std::string& s) {
-  if (s.find_first_of(",\"\n") == std::string::npos) return s;
-  std::string q = "\"";
-  for (char c : s) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-  return q + "\"";
-}
 
 }  // namespace
 

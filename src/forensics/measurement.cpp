@@ -1,5 +1,6 @@
 #include <locard/forensics/measurement.hpp>
 
+#include "forensics/csv_field.hpp"
 #include "forensics/json_util.hpp"
 
 #include <locard/core/atomic_file.hpp>
@@ -613,7 +614,7 @@ void write_measurement_table(const CaseFolder& folder, const std::vector<TableRo
   for (const TableRow& r : rows) {
     if (!r.not_measured.empty()) {
       j["rows"].push_back({{"name", r.name}, {"real_m", r.real_m}, {"not_measured", r.not_measured}});
-      csv += fmt::format("\"{}\",{:.5f},,,,not measured,,\n", r.name, r.real_m);
+      csv += fmt::format("{},{:.5f},,,,not measured,,\n", csv_field(r.name), r.real_m);
       continue;
     }
     j["rows"].push_back({{"name", r.name},
@@ -623,13 +624,8 @@ void write_measurement_table(const CaseFolder& folder, const std::vector<TableRo
                          {"expanded_uncertainty_m", r.expanded_uncertainty_m},
                          {"within_uncertainty", r.within_uncertainty},
                          {"measurement", p2p_json(r.detail)}});
-    std::string name = r.name;
-    if (name.find_first_of(",\"") != std::string::npos) {
-      std::string q = "\"";
-      for (char c : name) q += c == '"' ? std::string("\"\"") : std::string(1, c);
-      name = q + "\"";
-    }
-    csv += fmt::format("{},{:.5f},{:.5f},{:.5f},{:.5f},{},{},{}\n", name, r.real_m, r.model_m,
+    csv += fmt::format("{},{:.5f},{:.5f},{:.5f},{:.5f},{},{},{}\n", csv_field(r.name), r.real_m,
+                       r.model_m,
                        r.error_m, r.expanded_uncertainty_m, r.within_uncertainty ? "yes" : "no",
                        r.detail.a.feature, r.detail.b.feature);
   }

@@ -57,6 +57,10 @@ Isometry3d read_pose_file(const fs::path& path) {
   const Eigen::Matrix3d R = m.topLeftCorner<3, 3>();
   if ((R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff() > kRotationTolerance)
     throw_input_error(path, "matrix is not a rigid transform (rotation not orthonormal)");
+  // An orthonormal matrix with determinant -1 is a reflection: the camera's world mirrored.
+  if (R.determinant() < 0.0)
+    throw_input_error(path, "matrix is a reflection (rotation determinant -1), not a rigid "
+                            "transform");
   Isometry3d T;
   T.matrix() = m;
   return T;

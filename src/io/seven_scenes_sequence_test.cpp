@@ -171,6 +171,10 @@ TEST(SevenScenesSequence, MalformedPoseFilesNameTheFile) {
   EXPECT_THAT(
       [&] { attempt("scale", "2 0 0 0\n0 2 0 0\n0 0 2 0\n0 0 0 1\n"); },
       ThrowsMessage<InputError>(AllOf(HasSubstr("frame-000007.pose.txt"), HasSubstr("rigid"))));
+  // Issue 14: orthonormal with determinant -1 (a mirror) was accepted.
+  EXPECT_THAT(
+      [&] { attempt("mirror", "-1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n"); },
+      ThrowsMessage<InputError>(AllOf(HasSubstr("frame-000007.pose.txt"), HasSubstr("reflection"))));
 }
 
 TEST(SevenScenesSequence, TruncatedJpegNamesFileAndFrame) {

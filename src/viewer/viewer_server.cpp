@@ -27,6 +27,25 @@ namespace fs = std::filesystem;
 
 constexpr const char* kLoopback = "127.0.0.1";
 
+// DNS rebinding: a page on evil.example whose name is made to resolve to 127.0.0.1 reaches a
+// loopback server from the user's browser, with Host: evil.example. Only requests addressed
+// to this machine by a loopback name are answered (no Host at all: not a browser).
+bool loopback_host(std::string_view host) {
+  if (host.empty()) return true;
+  if (host.starts_with("[")) {  // [::1]:port
+    const std::size_t close = host.find(']');
+    if (close == std::string_view::npos) return false;
+    const std::string_view rest = host.substr(close + 1);
+    if (!rest.empty() && !rest.starts_with(":")) return false;
+    host = host.substr(1, close - 1);
+  } else if (const std::size_t colon = host.rfind(':'); colon != std::string_view::npos) {
+    host = host.substr(0, colon);
+  }
+  std::string lower(host);
+  for (char& c : lower) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  return lower == "127.0.0.1" || lower == "localhost" || lower == "::1";
+}
+
 std::string mime_type(const fs::path& path) {
   static const std::map<std::string, std::string> types = {
       {".html", "text/html; charset=utf-8"},
@@ -197,6 +216,11 @@ struct ViewerServer::Impl {
   void install_routes() {
     server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
       set_common_headers(res);
+      if (!loopback_host(req.get_header_value("Host"))) {
+        send_error(res, 403, "refused: the Host header names another machine; this server "
+                             "answers only requests addressed to 127.0.0.1 or localhost");
+        return httplib::Server::HandlerResponse::Handled;
+      }
       std::string given = req.get_param_value("token");
       if (given.empty()) given = req.get_header_value("X-Locard-Token");
       if (!token_matches(options.token, given)) {

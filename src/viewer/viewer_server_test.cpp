@@ -59,7 +59,8 @@ Reply request(std::uint16_t port, const std::string& method, const std::string& 
     return reply;
   }
   std::ostringstream out;
-  out << method << " " << target << " HTTP/1.0\r\nHost: 127.0.0.1\r\n";
+  out << method << " " << target << " HTTP/1.0\r\n";
+  if (!headers.count("Host")) out << "Host: 127.0.0.1\r\n";
   for (const auto& [k, v] : headers) out << k << ": " << v << "\r\n";
   if (method == "POST")
     out << "Content-Type: application/json\r\nContent-Length: " << body.size() << "\r\n";
@@ -189,6 +190,24 @@ TEST(ViewerServer, RefusesRequestsWithoutTheToken) {
   EXPECT_EQ(summary["view"]["inferred_triangles"], 1);
   ASSERT_EQ(summary["view"]["simulations"].size(), 1u);
   EXPECT_EQ(summary["view"]["simulations"][0]["animation"], "simulations/drop/animation.glb");
+  server.stop();
+}
+
+// Issue 14 (DNS rebinding): with the right token, a request whose Host names another machine is
+// refused; loopback names with or without a port are answered.
+TEST(ViewerServer, AnswersOnlyRequestsAddressedToThisMachine) {
+  Fixture f;
+  ViewerServer server({f.case_dir, f.web_root, ""});
+  server.start();
+  const std::uint16_t port = server.port();
+  const std::string target = "/api/case?token=" + server.token();
+  const std::string p = ":" + std::to_string(port);
+  for (const std::string& host : std::vector<std::string>{"evil.example", "evil.example" + p, "127.0.0.1.evil.example",
+                                 "192.168.1.20" + p, "[::2]" + p, "localhost.evil"})
+    EXPECT_EQ(request(port, "GET", target, {{"Host", host}}).status, 403) << host;
+  for (const std::string& host :
+       std::vector<std::string>{"127.0.0.1" + p, "localhost" + p, "LOCALHOST", "[::1]" + p})
+    EXPECT_EQ(request(port, "GET", target, {{"Host", host}}).status, 200) << host;
   server.stop();
 }
 
