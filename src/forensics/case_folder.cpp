@@ -1,5 +1,6 @@
 #include <locard/forensics/case_folder.hpp>
 
+#include "forensics/case_lock.hpp"
 #include "forensics/json_util.hpp"
 
 #include <locard/core/atomic_file.hpp>
@@ -99,10 +100,13 @@ CaseFolder CaseFolder::create(const fs::path& root, bool force) {
     if (!fs::exists(root / kCase))
       throw_input_error(root, "folder is not empty and holds no case.json: it is not a Locard "
                               "case, so it is not replaced even with --force");
+    // Held before anything is removed: a command still working on the old case finishes first.
+    std::shared_ptr<CaseLock> lock = CaseLock::acquire(root);
     for (const auto& entry : fs::directory_iterator(root)) fs::remove_all(entry.path());
+    return CaseFolder(root, std::move(lock));
   }
   fs::create_directories(root);
-  return CaseFolder(root);
+  return CaseFolder(root, CaseLock::acquire(root));
 }
 
 CaseFolder CaseFolder::open(const fs::path& root) {
@@ -110,7 +114,7 @@ CaseFolder CaseFolder::open(const fs::path& root) {
   for (const char* name : {kCase, kManifest})
     if (!fs::is_regular_file(root / name))
       throw_input_error(root, fmt::format("not a Locard case folder: {} is missing", name));
-  return CaseFolder(root);
+  return CaseFolder(root, CaseLock::acquire(root));
 }
 
 fs::path CaseFolder::path(const fs::path& relative) const {

@@ -10,8 +10,11 @@
 
 #include "test_support.hpp"
 
+#include <atomic>
+#include <chrono>
 #include <fstream>
 #include <set>
+#include <thread>
 
 namespace locard::forensics {
 namespace {
@@ -157,6 +160,30 @@ TEST(VerifyCase, InputChangedAndLogTampering) {
   // A tampered manifest that is not JSON is an InputError, not a pass.
   write(other / "case" / "manifest.json", "{ not json");
   EXPECT_THROW(verify_case(other / "case"), InputError);
+}
+
+// The case lock (case_lock.hpp): a thread that opens a case another thread holds waits for
+// it; the holder may open it again itself (re-entrant) without deadlocking.
+TEST(CaseFolder, HoldsTheCaseOneCommandAtATime) {
+  const fs::path root = test::scratch_dir() / "locked";
+  { CaseFolder::create(root, false).update_manifest(); }
+  std::ofstream(root / "case.json") << "{}";
+  std::atomic<bool> released{false};
+  std::atomic<bool> second_saw_release{false};
+  std::thread holder([&] {
+    const CaseFolder first = CaseFolder::open(root);
+    const CaseFolder again = CaseFolder::open(root);  // the same thread: no deadlock
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    released = true;
+  });
+  std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  std::thread waiter([&] {
+    const CaseFolder second = CaseFolder::open(root);
+    second_saw_release = released.load();
+  });
+  holder.join();
+  waiter.join();
+  EXPECT_TRUE(second_saw_release) << "the second opener ran while the first held the case";
 }
 
 }  // namespace

@@ -10,6 +10,8 @@
 
 #include "test_support.hpp"
 
+#include <algorithm>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 
@@ -148,6 +150,31 @@ TEST_F(ReconstructCli, SameInputAndSeedGiveTheSameModel) {
   for (const char* f : {"alignment/trajectory.txt", "mesh/mesh.ply", "mesh/mesh.glb",
                         "cloud/registered.ply", "measurements/table.csv"})
     EXPECT_EQ(sha256_file(again / f), sha256_file(case_dir() / f)) << f;
+}
+
+// Issue 14 (lost writes): ten `marker add` at once on one case kept one marker (each read the
+// same markers.json and the last write won) and verify still said OK. The case lock makes them
+// take turns: ten markers, numbered 1-10 once each, ten log steps, verify OK.
+TEST_F(ReconstructCli, ConcurrentMarkerAddsAreAllKept) {
+  const fs::path c = *dir_ / "concurrent-case";
+  ASSERT_EQ(run_cli(reconstruct_args(c)).exit_code, 0);
+  constexpr int kWriters = 10;
+  std::string script;
+  for (int i = 1; i <= kWriters; ++i)
+    script += "'" + std::string(LOCARD_CLI_PATH) + "' --quiet marker add " + q(c) + " --label m" +
+              std::to_string(i) + " --at 1.92,-0.3,1.4 --no-report > /dev/null 2>&1 & ";
+  ASSERT_EQ(std::system(("/bin/bash -c \"" + script + "wait\"").c_str()), 0);
+  const auto listed = run_cli("marker list " + q(c));
+  ASSERT_EQ(listed.exit_code, 0) << listed.output;
+  for (int i = 1; i <= kWriters; ++i) {
+    EXPECT_NE(listed.output.find(",m" + std::to_string(i) + ","), std::string::npos)
+        << "marker m" << i << " lost:\n" << listed.output;
+    EXPECT_NE(listed.output.find("\n" + std::to_string(i) + ","), std::string::npos)
+        << "number " << i << ":\n" << listed.output;
+  }
+  EXPECT_EQ(std::count(listed.output.begin(), listed.output.end(), '\n'), kWriters + 1);
+  const auto verified = run_cli("verify " + q(c));
+  EXPECT_EQ(verified.exit_code, 0) << verified.output;
 }
 
 TEST_F(ReconstructCli, MarkersTrajectoriesAndMeasurementsJoinTheCaseThroughTheLog) {

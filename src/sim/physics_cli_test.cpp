@@ -124,10 +124,13 @@ TEST(PhysicsCli, BadScenariosExitTwoNamingTheKey) {
 
 TEST(PhysicsCli, SimulationIsLoggedInACase) {
   const fs::path root = scratch_dir() / "case";
-  forensics::CaseFolder c = forensics::CaseFolder::create(root, false);
-  write_ply(c.path("mesh/mesh.ply"), sim::test::bedroom_mesh());
-  std::ofstream(root / "case.json") << R"({"name": "test case"})";
-  c.update_manifest();
+  {
+    // Released before the CLI runs: a CaseFolder holds the case (case_lock.hpp).
+    forensics::CaseFolder c = forensics::CaseFolder::create(root, false);
+    write_ply(c.path("mesh/mesh.ply"), sim::test::bedroom_mesh());
+    std::ofstream(root / "case.json") << R"({"name": "test case"})";
+    c.update_manifest();
+  }
   const CommandResult r = run_cli("simulate " + quoted(root) + " " + quoted(example("bedroom-person.json")));
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_THAT(r.output, HasSubstr("logged"));

@@ -19,11 +19,14 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 namespace locard::forensics {
+
+class CaseLock;
 
 struct FileRecord {
   std::string path;  // relative to the case root (outputs) or as given (inputs)
@@ -50,6 +53,8 @@ class CaseFolder {
   // caller: call this after validating, before writing).
   static CaseFolder create(const std::filesystem::path& root, bool force);
   // An existing case: throws InputError unless `root` holds case.json and manifest.json.
+  // Both hold the case exclusively (case_lock.hpp) for as long as the CaseFolder, or a copy
+  // of it, lives: one writer at a time, across processes and threads.
   static CaseFolder open(const std::filesystem::path& root);
 
   const std::filesystem::path& root() const { return root_; }
@@ -71,8 +76,10 @@ class CaseFolder {
   std::string case_json_text() const;
 
  private:
-  explicit CaseFolder(std::filesystem::path root) : root_(std::move(root)) {}
+  CaseFolder(std::filesystem::path root, std::shared_ptr<CaseLock> lock)
+      : root_(std::move(root)), lock_(std::move(lock)) {}
   std::filesystem::path root_;
+  std::shared_ptr<CaseLock> lock_;
 };
 
 struct VerifyProblem {
