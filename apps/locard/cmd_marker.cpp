@@ -64,6 +64,7 @@ int run_add(const MarkerCli& o) {
   save(folder, set, "marker add",
        {{"label", o.label}, {"at", o.at}, {"snap", !o.no_snap}, {"note", o.note}},
        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), !o.no_report);
+  print_log_head(folder.root());
   return 0;
 }
 
@@ -86,6 +87,7 @@ int run_frame(const MarkerCli& o) {
         {"description", o.description}},
        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), !o.no_report);
   fmt::print("{}", fx::markers_csv(set));
+  print_log_head(folder.root());
   return 0;
 }
 

@@ -122,6 +122,7 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
   step.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   folder.append_log_step(step);
   if (!o.no_report) fx::refresh_case_report(folder);
+  print_log_head(folder.root());
   return 0;
 }
 

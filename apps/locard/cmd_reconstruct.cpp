@@ -89,6 +89,7 @@ int run_reconstruct(const ReconstructCli& o, const GlobalOptions& global) {
     fmt::print("reconstruct: report {}\n", fs::absolute(s.report_html).string());
     if (s.report_pdf) fmt::print("reconstruct: report {}\n", fs::absolute(*s.report_pdf).string());
   }
+  print_log_head(s.case_dir);
   if (!s.enough_verified) {
     std::fprintf(stderr,
                  "locard: only %zu of %zu usable views verified: the case is written with the "

@@ -49,6 +49,7 @@ int run(const SimulateCliOptions& o, const GlobalOptions& global) {
                s.logged ? " (logged in the case's log.jsonl)"
                         : " (not a Locard case folder: no case.json, so nothing was logged)");
   }
+  if (s.logged) print_log_head(o.case_dir);
   return 0;
 }
 

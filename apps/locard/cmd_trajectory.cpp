@@ -69,6 +69,7 @@ int run_trajectory(const TrajectoryCli& o) {
   s.outputs = {"trajectories/analyses.json"};
   folder.append_log_step(s);
   if (!o.no_report) fx::refresh_case_report(folder);
+  print_log_head(folder.root());
   return 0;
 }
 

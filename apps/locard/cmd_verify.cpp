@@ -14,17 +14,35 @@ namespace {
 struct VerifyCli {
   std::string case_dir;
   bool skip_inputs = false;
+  std::string expect_head;
 };
 
 int run_verify(const VerifyCli& o, const GlobalOptions& global) {
   namespace fx = locard::forensics;
-  const fx::VerifyReport r = fx::verify_case(o.case_dir, !o.skip_inputs);
+  fx::VerifyReport r = fx::verify_case(o.case_dir, !o.skip_inputs);
+  // A head printed earlier must still be a line of the log: steps after it are additions
+  // (reported), a head that is gone means the steps up to it were rewritten or removed.
+  std::string since;
+  if (!o.expect_head.empty()) {
+    const std::optional<std::size_t> at = fx::find_log_line(o.case_dir, o.expect_head);
+    if (!at)
+      r.problems.push_back({fx::VerifyProblem::Kind::LogChain, "log.jsonl",
+                            fmt::format("no log line hashes to {} (the head printed earlier): "
+                                        "the steps up to it were rewritten or removed",
+                                        o.expect_head)});
+    else if (*at + 1 < r.log_lines)
+      since = fmt::format("; {} step(s) logged after the expected head", r.log_lines - *at - 1);
+    else
+      since = "; the log ends at the expected head";
+  }
   for (const fx::VerifyProblem& p : r.problems)
     fmt::print(stderr, "verify: {}: {} - {}\n", to_string(p.kind), p.path, p.detail);
   if (!global.quiet || !r.ok())
     fmt::print("verify: {}: {} case files, {} inputs, {} log lines checked: {}\n", o.case_dir,
                r.files_checked, r.inputs_checked, r.log_lines,
-               r.ok() ? "OK, nothing changed" : fmt::format("{} problem(s)", r.problems.size()));
+               r.ok() ? "OK, nothing changed" + since
+                      : fmt::format("{} problem(s)", r.problems.size()));
+  fmt::print("case log head: sha256 {}\n", r.log_head_sha256);
   return r.ok() ? 0 : 1;
 }
 
@@ -38,6 +56,9 @@ void register_verify(CLI::App& app, GlobalOptions& global) {
   cmd->add_option("case", o->case_dir, "Case folder")->required();
   cmd->add_flag("--skip-inputs", o->skip_inputs,
                 "Do not re-hash the original inputs (only the case folder was copied)");
+  cmd->add_option("--expect-head", o->expect_head,
+                  "A log head (sha256 hex) a command printed earlier: exit 1 unless the log "
+                  "still holds it (later steps are reported, not refused)");
   set_runner(cmd, [o, &global] { return run_verify(*o, global); });
 }
 

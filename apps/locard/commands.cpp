@@ -1,5 +1,9 @@
 #include "commands.hpp"
 
+#include <locard/forensics/case_folder.hpp>
+
+#include <cstdio>
+
 #include <map>
 
 namespace locard::cli {
@@ -9,6 +13,10 @@ std::map<const CLI::App*, CommandRunner>& runners() {
   return map;
 }
 }  // namespace
+
+void print_log_head(const std::filesystem::path& case_dir) {
+  std::printf("case log head: sha256 %s\n", forensics::log_head_sha256(case_dir).c_str());
+}
 
 void set_runner(CLI::App* subcommand, CommandRunner runner) {
   runners()[subcommand] = std::move(runner);

@@ -4,6 +4,7 @@
 
 #include <CLI/CLI.hpp>
 
+#include <filesystem>
 #include <functional>
 
 namespace locard::cli {
@@ -11,6 +12,10 @@ namespace locard::cli {
 struct GlobalOptions {
   bool quiet = false;
 };
+
+// After a command changed a case: its log head (forensics::log_head_sha256), printed even
+// with --quiet, as it is the command's receipt: "case log head: sha256 <hex>".
+void print_log_head(const std::filesystem::path& case_dir);
 
 // Runs a sub-command; returns the process exit code.
 using CommandRunner = std::function<int()>;

@@ -194,6 +194,18 @@ std::string_view to_string(VerifyProblem::Kind kind) {
   return "?";
 }
 
+std::string log_head_sha256(const fs::path& root) {
+  const std::vector<std::string> lines = log_lines(root / kLog);
+  return lines.empty() ? std::string() : sha256_hex(lines.back());
+}
+
+std::optional<std::size_t> find_log_line(const fs::path& root, const std::string& hex) {
+  const std::vector<std::string> lines = log_lines(root / kLog);
+  for (std::size_t i = 0; i < lines.size(); ++i)
+    if (sha256_hex(lines[i]) == hex) return i;
+  return std::nullopt;
+}
+
 VerifyReport verify_case(const fs::path& root, bool check_inputs) {
   const CaseFolder folder = CaseFolder::open(root);
   VerifyReport report;
@@ -249,6 +261,7 @@ VerifyReport verify_case(const fs::path& root, bool check_inputs) {
       for (const json& o : line["outputs"]) last_logged[o.value("path", "")] = o.value("sha256", "");
   }
   const std::string head = lines.empty() ? std::string() : sha256_hex(lines.back());
+  report.log_head_sha256 = head;
   if (manifest.value("log_head_sha256", "") != head)
     report.problems.push_back(
         {Kind::LogChain, kLog,

@@ -155,6 +155,58 @@ TEST_F(ReconstructCli, SameInputAndSeedGiveTheSameModel) {
 // Issue 14 (lost writes): ten `marker add` at once on one case kept one marker (each read the
 // same markers.json and the last write won) and verify still said OK. The case lock makes them
 // take turns: ten markers, numbered 1-10 once each, ten log steps, verify OK.
+// Issue 14 (forgery): change a mesh byte, put the new hash in the log and the manifest and
+// re-chain every prev_sha256 - verify alone cannot tell. The log head a command printed is the
+// anchor: verify --expect-head with it fails once the steps up to it were rewritten, and
+// passes (reporting the later steps) while they only grew.
+TEST_F(ReconstructCli, APrintedLogHeadCatchesARechainedForgery) {
+  const fs::path c = *dir_ / "forged-case";
+  const auto made = run_cli(reconstruct_args(c));
+  ASSERT_EQ(made.exit_code, 0) << made.output;
+  const std::size_t at = made.output.find("case log head: sha256 ");
+  ASSERT_NE(at, std::string::npos) << made.output;
+  const std::string head = made.output.substr(at + 22, 64);
+  auto r = run_cli("verify " + q(c) + " --expect-head " + head);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  r = run_cli("marker add " + q(c) + " --label later --at 1.92,-0.3,1.4 --no-report");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("case log head: sha256 "), std::string::npos) << r.output;
+  r = run_cli("verify " + q(c) + " --expect-head " + head);
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("logged after the expected head"), std::string::npos) << r.output;
+
+  // The forgery: the mesh changed, every record of its hash rewritten, the chain re-made.
+  const fs::path mesh = c / "mesh" / "mesh.ply";
+  flip_byte(mesh, fs::file_size(mesh) / 2);
+  const std::string forged_hash = forensics::sha256_file(mesh);
+  std::ifstream log_in(c / "log.jsonl");
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(log_in, line);)
+    if (!line.empty()) lines.push_back(line);
+  log_in.close();
+  std::string previous, log_text;
+  for (std::string& line : lines) {
+    nlohmann::json j = nlohmann::json::parse(line);
+    for (auto& o : j["outputs"])
+      if (o["path"] == "mesh/mesh.ply") o["sha256"] = forged_hash;
+    j["prev_sha256"] = previous.empty() ? std::string() : forensics::sha256_hex(previous);
+    line = j.dump();
+    previous = line;
+    log_text += line + "\n";
+  }
+  std::ofstream(c / "log.jsonl", std::ios::trunc) << log_text;
+  nlohmann::json manifest = nlohmann::json::parse(std::ifstream(c / "manifest.json"));
+  manifest["files"]["mesh/mesh.ply"]["sha256"] = forged_hash;
+  manifest["files"]["log.jsonl"] = {{"bytes", log_text.size()}, {"sha256", forensics::sha256_hex(log_text)}};
+  manifest["log_head_sha256"] = forensics::sha256_hex(previous);
+  std::ofstream(c / "manifest.json", std::ios::trunc) << manifest.dump(2);
+  r = run_cli("verify " + q(c));
+  EXPECT_EQ(r.exit_code, 0) << "the forgery is consistent, verify alone passes it: " << r.output;
+  r = run_cli("verify " + q(c) + " --expect-head " + head);
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("rewritten or removed"), std::string::npos) << r.output;
+}
+
 TEST_F(ReconstructCli, ConcurrentMarkerAddsAreAllKept) {
   const fs::path c = *dir_ / "concurrent-case";
   ASSERT_EQ(run_cli(reconstruct_args(c)).exit_code, 0);

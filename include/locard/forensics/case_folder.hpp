@@ -94,6 +94,7 @@ struct VerifyReport {
   std::size_t files_checked = 0;
   std::size_t inputs_checked = 0;
   std::size_t log_lines = 0;
+  std::string log_head_sha256;  // of the log's last line; empty for an empty log
   std::vector<VerifyProblem> problems;
   bool ok() const { return problems.empty(); }
 };
@@ -102,6 +103,15 @@ struct VerifyReport {
 // (e.g. on a machine that only received the case folder). Throws InputError when the folder
 // is not a case or manifest.json / case.json / log.jsonl cannot be parsed at all.
 VerifyReport verify_case(const std::filesystem::path& root, bool check_inputs = true);
+
+// The SHA-256 of the last line of the case's log.jsonl (empty when it has none): the anchor
+// every command that changes a case prints, and `verify --expect-head` checks (a head
+// written down earlier pins every step up to it, as each line hashes the one before).
+std::string log_head_sha256(const std::filesystem::path& root);
+// The 0-based number of the log line whose SHA-256 is `sha256_hex`; none when no line is.
+// A head printed earlier is found unless the steps up to it were rewritten or removed.
+std::optional<std::size_t> find_log_line(const std::filesystem::path& root,
+                                         const std::string& sha256_hex);
 
 // Every regular file under `folder`, relative, sorted, '/'-separated.
 std::vector<std::string> list_files_recursive(const std::filesystem::path& folder);
