@@ -3,6 +3,7 @@
 // the file after one byte of a mesh or an input changes; a case is never written over without
 // --force; bad measurement input is a clear error that changes nothing; the same input and seed
 // give the same model bit for bit; markers and trajectories join the case through the log.
+#include <locard/forensics/case_folder.hpp>
 #include <locard/forensics/integrity.hpp>
 
 #include <gtest/gtest.h>
@@ -168,6 +169,13 @@ TEST_F(ReconstructCli, APrintedLogHeadCatchesARechainedForgery) {
   const std::string head = made.output.substr(at + 22, 64);
   auto r = run_cli("verify " + q(c) + " --expect-head " + head);
   EXPECT_EQ(r.exit_code, 0) << r.output;
+  // The report carries a head too, one the log holds (the report's own step follows it).
+  std::ifstream report_in(c / "report" / "report.html");
+  const std::string report((std::istreambuf_iterator<char>(report_in)), {});
+  const std::size_t in_report = report.find("id=\"log-head\"");
+  ASSERT_NE(in_report, std::string::npos);
+  const std::size_t hex_at = report.find("sha256 ", in_report) + 7;
+  EXPECT_TRUE(find_log_line(c, report.substr(hex_at, 64)).has_value()) << report.substr(hex_at, 64);
   r = run_cli("marker add " + q(c) + " --label later --at 1.92,-0.3,1.4 --no-report");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("case log head: sha256 "), std::string::npos) << r.output;

@@ -473,6 +473,15 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
   h += "<p class=\"note\">Outputs as listed in manifest.json when this report was written (the "
        "report and the final manifest are hashed in log.jsonl and manifest.json). Check with "
        "<code>locard verify CASE_DIR</code>.</p>";
+  {
+    // The anchor (case_folder.hpp): this head stays a line of the log unless the steps up to
+    // it are rewritten; the report's own step follows it.
+    const std::string head = log_head_sha256(root);
+    h += fmt::format("<p id=\"log-head\">Log head when this report was written: <span "
+                     "class=hash>sha256 {}</span>. Check that the case still holds every step up "
+                     "to it with <code>locard verify CASE_DIR --expect-head {}</code>.</p>\n",
+                     head.empty() ? "(empty log)" : head, head);
+  }
   h += "<table id=\"output-hashes\"><tr><th>case file</th><th>bytes</th><th>sha256</th></tr>";
   if (const json manifest = read_json_or_null(root / "manifest.json"); !manifest.is_null())
     for (const auto& [k, v] : manifest["files"].items())
