@@ -479,6 +479,12 @@ Scenario parse_scenario(std::string_view json_text, const fs::path& source,
   s.source = source;
   s.source_text = std::string(json_text);
   s.name = r.string("name");
+  // A folder name: simulations/<name>. Longer than kMaxNameBytes fails the file system (255
+  // bytes on ext4) after the output folder was made - checked here, before anything is written.
+  constexpr std::size_t kMaxNameBytes = 100;
+  if (s.name.size() > kMaxNameBytes)
+    r.fail(r.place("name") + ": at most " + std::to_string(kMaxNameBytes) +
+           " bytes (it names the simulation's folder), found " + std::to_string(s.name.size()));
   if (s.name.empty() || s.name == "." || s.name == ".." ||
       s.name.find_first_of("/\\") != std::string::npos ||
       std::any_of(s.name.begin(), s.name.end(), [](char c) { return static_cast<unsigned char>(c) < 0x20; }))

@@ -57,6 +57,9 @@ TEST(PhysicsScenario, BadInputNamesTheKey) {
   };
   for (const auto& [text, expected] : cases)
     EXPECT_THAT(error_of(text), AllOf(HasSubstr("bad.json"), HasSubstr(expected))) << text;
+  // Issue 14: a 300-character name failed the file system after the output folder was made.
+  const std::string long_name = R"({"name": ")" + std::string(300, 'n') + R"(", "objects": []})";
+  EXPECT_THAT(error_of(long_name), AllOf(HasSubstr("scenario.name"), HasSubstr("at most 100 bytes")));
 }
 
 TEST(PhysicsScenario, DefaultsAndAiming) {
