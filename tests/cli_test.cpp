@@ -98,6 +98,20 @@ TEST(Cli, ConvertOfATruncatedCloudFailsAndLeavesNoOutput) {
   EXPECT_EQ(test::list_folder(dir), "in.ply\n");
 }
 
+// Issue 14: NaN and infinite coordinates passed info and convert silently.
+TEST(Cli, InfoAndConvertSayHowManyPointsAreNotFinite) {
+  const auto dir = test::scratch_dir();
+  std::ofstream(dir / "nan.ply") << "ply\nformat ascii 1.0\nelement vertex 3\nproperty float x\n"
+                                    "property float y\nproperty float z\nend_header\n"
+                                    "0 0 0\nnan 1 1\n1 2 inf\n";
+  auto r = run_cli("info '" + (dir / "nan.ply").string() + "'");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(contains(r.output, "non-finite:    2 points")) << r.output;
+  r = run_cli("--quiet convert '" + (dir / "nan.ply").string() + "' '" + (dir / "out.pcd").string() + "'");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(contains(r.output, "2 of 3 points have NaN or infinite coordinates")) << r.output;
+}
+
 TEST(Cli, ConvertMergesASequenceAtItsGroundTruthPoses) {
   const auto dir = test::scratch_dir();
   const auto data = shared_data() / "7scenes-tsdf-fusion" / "data";

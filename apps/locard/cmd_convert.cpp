@@ -8,6 +8,7 @@
 #include <locard/io/rgbd_sequence.hpp>
 #include <locard/preprocess/depth_to_points.hpp>
 
+#include <algorithm>
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
 
@@ -101,7 +102,12 @@ void register_convert(CLI::App& app, GlobalOptions& global) {
       cloud = fuse_sequence(*opt, global.quiet);
     else
       throw_input_error(opt->input, "not a point cloud or RGB-D sequence Locard can read");
+    const auto non_finite = std::count_if(cloud.positions.begin(), cloud.positions.end(),
+                                          [](const Eigen::Vector3f& p) { return !p.allFinite(); });
     write_point_cloud(opt->output, cloud, {.ascii = opt->ascii, .compressed = opt->compressed});
+    if (non_finite)  // a warning even with --quiet: the output holds them too
+      fmt::print(stderr, "convert: {} of {} points have NaN or infinite coordinates; written "
+                         "as they are\n", non_finite, cloud.size());
     if (!global.quiet)
       fmt::print("wrote {} ({} points{}{})\n", opt->output, cloud.size(),
                  cloud.has_colors() ? ", colours" : "", cloud.has_normals() ? ", normals" : "");

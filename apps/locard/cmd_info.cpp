@@ -125,10 +125,13 @@ int info_cloud(const InfoOptions& opt, DatasetFormat format) {
   const PointCloud cloud = read_point_cloud(opt.path);
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
   Eigen::Vector3f hi = -lo;
+  std::size_t non_finite = 0;  // NaN or infinite coordinates: said, never silently folded in
   for (const auto& p : cloud.positions)
     if (p.allFinite()) {
       lo = lo.cwiseMin(p);
       hi = hi.cwiseMax(p);
+    } else {
+      ++non_finite;
     }
   std::vector<std::string> scalars;
   for (const auto& s : cloud.scalars) scalars.push_back(s.name);
@@ -138,7 +141,8 @@ int info_cloud(const InfoOptions& opt, DatasetFormat format) {
                         {"points", cloud.size()},
                         {"normals", cloud.has_normals()},
                         {"colors", cloud.has_colors()},
-                        {"scalars", scalars}};
+                        {"scalars", scalars},
+                        {"non_finite_points", non_finite}};
     if (!cloud.empty()) j["bounds"] = {{lo.x(), lo.y(), lo.z()}, {hi.x(), hi.y(), hi.z()}};
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
@@ -149,9 +153,12 @@ int info_cloud(const InfoOptions& opt, DatasetFormat format) {
   fmt::print("attributes:    positions{}{}{}\n", cloud.has_normals() ? ", normals" : "",
              cloud.has_colors() ? ", colours" : "",
              scalars.empty() ? "" : ", " + fmt::format("{}", fmt::join(scalars, ", ")));
-  if (!cloud.empty())
-    fmt::print("bounds:        [{:.4f} {:.4f} {:.4f}] .. [{:.4f} {:.4f} {:.4f}] m\n", lo.x(),
-               lo.y(), lo.z(), hi.x(), hi.y(), hi.z());
+  if (non_finite < cloud.size())
+    fmt::print("bounds:        [{:.4f} {:.4f} {:.4f}] .. [{:.4f} {:.4f} {:.4f}] m{}\n", lo.x(),
+               lo.y(), lo.z(), hi.x(), hi.y(), hi.z(),
+               non_finite ? " (of the finite points)" : "");
+  if (non_finite)
+    fmt::print("non-finite:    {} points with NaN or infinite coordinates\n", non_finite);
   fmt::print("ground truth:  no\n");
   return 0;
 }
