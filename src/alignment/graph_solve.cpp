@@ -85,14 +85,12 @@ void accumulate(PoseGraphResult& total, const PoseGraphResult& pr) {
 
 // Tripod post-check: loop edges registered without the tripod may slide along walls, and a
 // solve that follows them moves views off the tripod the hold stage put them on. Such a
-// solution is worse than the tracked poses: bounds of the hold stage (tripod_hold.cpp).
-constexpr double kOffRingDeg = 0.5;
-constexpr double kOffTripodM = 0.02;
+// solution is worse than the tracked poses: the hold stage's bounds (tripod_fit.hpp).
 
 bool bends_tripod(const std::vector<Isometry3d>& before, const std::vector<Isometry3d>& after) {
-  const auto was = views_off_tripod(before, kOffRingDeg, kOffTripodM);
+  const auto was = views_off_tripod(before, kOnRingDeg, kOnTripodM);
   if (!was) return false;
-  const auto now = views_off_tripod(after, kOffRingDeg, kOffTripodM);
+  const auto now = views_off_tripod(after, kOnRingDeg, kOnTripodM);
   return !now || *now > *was;
 }
 

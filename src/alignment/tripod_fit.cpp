@@ -151,6 +151,19 @@ std::optional<TripodFit> fit_tripod(const std::vector<Eigen::Matrix3d>& R,
   return fit;
 }
 
+Eigen::Vector3d median_centre(const std::vector<Eigen::Isometry3d>& T) {
+  Eigen::Vector3d m = Eigen::Vector3d::Zero();
+  if (T.empty()) return m;
+  std::vector<double> v(T.size());
+  for (int axis = 0; axis < 3; ++axis) {
+    for (std::size_t i = 0; i < T.size(); ++i) v[i] = T[i].translation()(axis);
+    const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
+    std::nth_element(v.begin(), mid, v.end());
+    m(axis) = *mid;
+  }
+  return m;
+}
+
 std::optional<std::size_t> views_off_tripod(const std::vector<Eigen::Isometry3d>& T,
                                             double off_axis_deg, double residual_m) {
   std::vector<Eigen::Matrix3d> R;

@@ -24,6 +24,17 @@
 
 namespace locard::alignment_detail {
 
+// A view is on the tripod when it lies within kOnRingDeg of its ring (tracking noise of a good
+// view is a few hundredths of a degree) and within kOnTripodM of the nodal model (tripod play
+// is millimetres): the hold stage and the pose graph's tripod post-check use the same bounds.
+// kTripodCentreSigmaM is how firmly a prior holds a camera centre to the tripod's.
+constexpr double kOnRingDeg = 0.5;
+constexpr double kOnTripodM = 0.02;
+constexpr double kTripodCentreSigmaM = 0.03;
+
+// Component-wise median of the poses' camera centres (robust to a minority of wrong views).
+Eigen::Vector3d median_centre(const std::vector<Eigen::Isometry3d>& T_world_camera);
+
 struct TripodFit {
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // world frame, unit
   std::vector<Eigen::Vector3d> ring_axes;            // camera frame, unit, one per ring

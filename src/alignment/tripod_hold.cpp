@@ -26,24 +26,13 @@
 namespace locard::alignment_detail {
 namespace {
 
-// On its ring within this: tracking noise of a good view is a few hundredths of a degree.
-constexpr double kOnRingDeg = 0.5;
-// On the tripod's nodal model within this (tripod play is millimetres).
-constexpr double kOnTripodM = 0.02;
 constexpr double kHeldOffAxisSigmaDeg = 1.0;
 constexpr double kFreePanSigmaDeg = 5.0;
-constexpr double kTripodCentreSigmaM = 0.03;
 
-Eigen::Vector3d median_centre(const AlignmentState& s, const std::vector<std::size_t>& views) {
-  Eigen::Vector3d m;
-  for (int axis = 0; axis < 3; ++axis) {
-    std::vector<double> v;
-    for (std::size_t f : views) v.push_back(s.tracked_pose(f).translation()(axis));
-    const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
-    std::nth_element(v.begin(), mid, v.end());
-    m(axis) = *mid;
-  }
-  return m;
+std::vector<Isometry3d> tracked_poses(const AlignmentState& s, const std::vector<std::size_t>& views) {
+  std::vector<Isometry3d> T;
+  for (std::size_t f : views) T.push_back(s.tracked_pose(f));
+  return T;
 }
 
 Target model_of(const AlignmentState& s, const std::vector<std::size_t>& views) {
@@ -107,9 +96,7 @@ std::vector<Eigen::Matrix3d> rotations(const AlignmentState& s,
 // nodal model (fit_nodal) - registered again against the model of the views on it.
 void hold_views(AlignmentState& s, const std::vector<std::size_t>& views, const TripodFit& fit,
                 const std::vector<Eigen::Matrix3d>& R) {
-  std::vector<Isometry3d> T;
-  for (std::size_t f : views) T.push_back(s.tracked_pose(f));
-  const NodalFit nodal = fit_nodal(T);
+  const NodalFit nodal = fit_nodal(tracked_poses(s, views));
   std::vector<std::size_t> good, off;  // frames; positions in `views`
   for (std::size_t k = 0; k < views.size(); ++k)
     if (fit.off_axis_deg[k] < kOnRingDeg && nodal.residual_m[k] < kOnTripodM) good.push_back(views[k]);
@@ -153,7 +140,7 @@ void hold_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
   for (std::size_t k = 0; k < views.size(); ++k)
     if (fit->off_axis_deg[k] < kOnRingDeg) good.push_back(views[k]);
   if (good.size() < 2) return;
-  align_rings(s, views, *fit, median_centre(s, good));
+  align_rings(s, views, *fit, median_centre(tracked_poses(s, good)));
   const std::vector<Eigen::Matrix3d> R = rotations(s, views);
   if (const std::optional<TripodFit> refit = fit_tripod(R)) hold_views(s, views, *refit, R);
 }

@@ -33,7 +33,6 @@ constexpr double kDeg = M_PI / 180.0;
 // lands on what the model already covers, and fits it better than the true pose at the
 // model's edge does, so fitness alone would walk the turn backwards.
 constexpr double kMaxBackTurnDeg = 10.0;
-constexpr double kTripodCentreSigmaM = 0.03;
 // Between consecutive views the camera centre moves by tripod play and the nodal offset's
 // turn (the prediction follows the offset once its pivot is fitted): a few centimetres.
 constexpr double kMaxCentreStepM = 0.10;

@@ -136,18 +136,6 @@ double free_space_share(const AlignmentState& s, std::size_t i, const OthersMode
   return seen ? static_cast<double>(through) / static_cast<double>(seen) : 0.0;
 }
 
-// Component-wise median of the registered camera centres (robust to a minority of wrong views).
-Eigen::Vector3d median_centre(const AlignmentState& s, const std::vector<std::size_t>& views) {
-  Eigen::Vector3d m;
-  for (int axis = 0; axis < 3; ++axis) {
-    std::vector<double> v;
-    for (std::size_t i : views) v.push_back(s.result.frames[i].T_world_camera_final->translation()(axis));
-    std::nth_element(v.begin(), v.begin() + v.size() / 2, v.end());
-    m(axis) = v[v.size() / 2];
-  }
-  return m;
-}
-
 // Tripod turn, per piece: each view's angle off its ring and its centre's distance from the
 // nodal model (tripod_fit.hpp); NaN where the views of a piece make no tripod fit.
 struct TripodConsistency {
@@ -321,7 +309,9 @@ void check_views(AlignmentState& s) {
       views.push_back(i);
   if (views.size() < 2) return;
   std::vector<char> excluded(s.n, 0);
-  const Eigen::Vector3d tripod_centre = median_centre(s, views);
+  std::vector<Isometry3d> final_poses;
+  for (std::size_t i : views) final_poses.push_back(*s.result.frames[i].T_world_camera_final);
+  const Eigen::Vector3d tripod_centre = median_centre(final_poses);
   const TripodConsistency tripod = tripod_consistency(s, views);
   for (int round = 0; round < std::max(1, s.options.view_check.rounds); ++round) {
     const ViewModel model = build_model(s, excluded);
