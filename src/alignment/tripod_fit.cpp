@@ -147,7 +147,8 @@ std::optional<TripodFit> fit_tripod(const std::vector<Eigen::Matrix3d>& R,
     fit.off_axis_deg.push_back(angle_between_deg(v, fit.ring_axes[r]));
     inliers += fit.off_axis_deg.back() < o.inlier_deg;
   }
-  if (2 * inliers < R.size()) return std::nullopt;
+  if (static_cast<double>(inliers) < o.min_inlier_share * static_cast<double>(R.size()))
+    return std::nullopt;
   return fit;
 }
 

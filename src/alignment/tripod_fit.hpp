@@ -14,8 +14,10 @@
 //      min_ring_views and a quarter of the largest ring's count);
 //   4. refine: alternate u_r = mean of the ring's R_i^T a and a = mean of R_i u_r over views
 //      within inlier_deg.
-// Not a tripod turn (no candidate pair, or fewer than half the views within inlier_deg of a
-// ring): no fit.
+// Not a tripod turn (no candidate pair, or fewer than min_inlier_share of the views within
+// inlier_deg of a ring): no fit. Where the capture is known to be a tripod turn, the self-check
+// asks for the fit whatever the share (0): a model half of whose views no tripod explains (a
+// ring tilted as a whole) is wrong, and must show it, not drop the test.
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
@@ -47,6 +49,7 @@ struct TripodFitOptions {
   double ring_deg = 3.0;
   double inlier_deg = 0.5;
   std::size_t min_ring_views = 4;
+  double min_inlier_share = 0.5;
 };
 
 std::optional<TripodFit> fit_tripod(const std::vector<Eigen::Matrix3d>& R_world_camera,

@@ -94,6 +94,15 @@ enum class AlignmentMode { Cumulative, Odometry };
 //    the head turns the camera about a pivot), as a wall lets a view slide along it.
 // A view that fails any test is flagged with the reason; flagged views leave the model and the
 // check runs again (at most `rounds` times), so one wrong view cannot condemn its neighbours.
+// Each view is checked against the views of its own piece only (pieces share no frame).
+//  - linked: a verified view vouches for its neighbours' placement only where they share
+//    surface, so views that pass every test but are joined to the rest only through flagged
+//    views form a block whose place in the model nothing checked (a ring split by bare walls
+//    into arcs that each agree with themselves and sit degrees apart). Verified views are
+//    linked where at least min_link_overlap of one view's surface (cells of twice the voxel
+//    size) is seen by the other: consecutive tripod views share 60-90 %, views a field of
+//    view apart under 10 %. The largest linked block is the model (its piece becomes piece
+//    0); the views of every other block are flagged.
 struct ViewCheckOptions {
   double max_correction_m = 0.02;
   double max_correction_deg = 1.0;
@@ -103,6 +112,7 @@ struct ViewCheckOptions {
   double max_tripod_offset_m = 0.25;
   double max_off_axis_deg = 1.0;
   double max_tripod_residual_m = 0.04;
+  double min_link_overlap = 0.2;
   int rounds = 3;
 };
 std::string_view to_string(AlignmentMode mode);
