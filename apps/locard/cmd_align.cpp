@@ -402,9 +402,9 @@ int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
     }
     const AlignmentTimings& t = result.timings;
     fmt::print("align: {:.1f} s (frames {:.1f}, registration {:.1f}, loop closure {:.1f}, pose "
-               "graph {:.1f}); wrote {}\n",
+               "graph {:.1f}, self-check {:.1f}); wrote {}\n",
                t.total_s, t.prepare_s, t.register_s, t.loop_closure_s, t.pose_graph_s,
-               opt.output);
+               t.verification_s, opt.output);
   }
   if (registered < 2) return 3;
   return result.enough_trusted() ? 0 : kExitTooFewVerified;

@@ -238,6 +238,7 @@ void write_stage_report_json(const std::filesystem::path& path, const AlignmentR
                     {"register", t.register_s},
                     {"loop_closure", t.loop_closure_s},
                     {"pose_graph", t.pose_graph_s},
+                    {"verification", t.verification_s},
                     {"total", t.total_s}};
   AtomicFile file(path, false);
   file.stream() << j.dump(2) << '\n';

@@ -5,6 +5,8 @@
 
 #include "core/floor_to_int.hpp"
 
+#include <locard/preprocess/point_selection.hpp>
+
 #include <Eigen/Eigenvalues>
 #include <fmt/format.h>
 #include <tbb/parallel_for.h>
@@ -173,6 +175,39 @@ TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<
   return out;
 }
 
+// The check's ICP runs on an even sample of the view: its correction and overlap are averages
+// over thousands of points, as good from 4000 as from a whole frame (10-20 thousand), and the
+// check of a long video is dominated by these searches.
+constexpr std::size_t kCheckPoints = 4000;
+
+PointCloud check_sample(const PointCloud& cloud) {
+  if (cloud.size() <= kCheckPoints) return cloud;
+  std::vector<std::uint32_t> keep;
+  const double step = static_cast<double>(cloud.size()) / static_cast<double>(kCheckPoints);
+  for (std::size_t k = 0; k < kCheckPoints; ++k)
+    keep.push_back(static_cast<std::uint32_t>(static_cast<double>(k) * step));
+  return select_points(cloud, keep);
+}
+
+// Where a view's check looks: the box spanned by its points and its camera centre, widened by
+// the model's margin (others_model).
+struct CheckBox {
+  Eigen::Vector3f lo, hi;
+};
+
+CheckBox check_box(const AlignmentState& s, std::size_t i) {
+  const Isometry3d& T = *s.result.frames[i].T_world_camera_final;
+  Eigen::Vector3f lo = T.translation().cast<float>(), hi = lo;
+  const Eigen::Isometry3f Tf = T.cast<float>();
+  for (const Eigen::Vector3f& p : s.prepared[i].cloud.positions) {
+    const Eigen::Vector3f q = Tf * p;
+    lo = lo.cwiseMin(q);
+    hi = hi.cwiseMax(q);
+  }
+  const float margin = static_cast<float>(4.0 * s.options.voxel_size);
+  return {lo.array() - margin, hi.array() + margin};
+}
+
 ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_t i,
                      const Eigen::Vector3d& tripod_centre, double off_axis_deg,
                      double tripod_residual_m) {
@@ -187,32 +222,26 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   c.off_axis_deg = off_axis_deg;
   c.tripod_residual_m = tripod_residual_m;
 
-  Eigen::Vector3f lo = T.translation().cast<float>(), hi = lo;
-  const Eigen::Isometry3f Tf = T.cast<float>();
-  for (const Eigen::Vector3f& p : cloud.positions) {
-    const Eigen::Vector3f q = Tf * p;
-    lo = lo.cwiseMin(q);
-    hi = hi.cwiseMax(q);
-  }
-  const float margin = static_cast<float>(4.0 * o.voxel_size);
-  const OthersModel others = others_model(model, i, lo.array() - margin, hi.array() + margin);
+  const CheckBox box = check_box(s, i);
+  const OthersModel others = others_model(model, i, box.lo, box.hi);
 
   std::vector<std::string> reasons;
   if (others.surface.size() < 50) {
     c.reason = "no other view overlaps it";
     return c;
   }
+  const PointCloud source = check_sample(cloud);
   IcpOptions icp_options;
   icp_options.method = IcpMethod::PointToPlane;
   icp_options.min_fitness = 0.0;
   icp_options.max_correspondence_distance = 2.0 * o.voxel_size;
   icp_options.convergence.max_iterations = 20;
-  IcpResult r = icp(cloud, others.surface, T, icp_options);
+  IcpResult r = icp(source, others.surface, T, icp_options);
   c.overlap = r.fitness;
   if (r.success) {
     icp_options.max_correspondence_distance = o.voxel_size;
     icp_options.convergence.max_iterations = 15;
-    const IcpResult fine = icp(cloud, others.surface, r.T_target_source, icp_options);
+    const IcpResult fine = icp(source, others.surface, r.T_target_source, icp_options);
     if (fine.success) r = fine;
   }
   if (!r.success) {
@@ -306,8 +335,23 @@ double pose_constraint(const PointCloud& cloud, bool rotation_only) {
 
 namespace {
 
+// Whether any point of view j lies where a check with this box looks, the box widened by a
+// voxel (a voxel j shares with the box counts): only then can j leaving or re-entering the
+// model change that check.
+bool reaches(const AlignmentState& s, std::size_t j, const CheckBox& box) {
+  const Eigen::Isometry3f T = s.result.frames[j].T_world_camera_final->cast<float>();
+  const float v = static_cast<float>(s.options.voxel_size);
+  const Eigen::Array3f lo = box.lo.array() - v, hi = box.hi.array() + v;
+  for (const Eigen::Vector3f& p : s.prepared[j].cloud.positions) {
+    const Eigen::Array3f q = (T * p).array();
+    if ((q >= lo).all() && (q <= hi).all()) return true;
+  }
+  return false;
+}
+
 // Every registered view of one piece checked against the others of that piece, rounds until
-// the flagged set settles.
+// the flagged set settles. A later round checks again only the views whose model changed: those
+// a newly flagged (or cleared) view reaches, and that view itself.
 void check_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
   std::vector<char> excluded(s.n, 1);  // views of other pieces never enter the model
   for (std::size_t i : views) excluded[i] = 0;
@@ -315,22 +359,30 @@ void check_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
   for (std::size_t i : views) final_poses.push_back(*s.result.frames[i].T_world_camera_final);
   const Eigen::Vector3d tripod_centre = median_centre(final_poses);
   const TripodConsistency tripod = tripod_consistency(s, views);
+  std::vector<CheckBox> boxes(views.size());
+  tbb::parallel_for(std::size_t{0}, views.size(), [&](std::size_t k) { boxes[k] = check_box(s, views[k]); });
+  std::vector<char> due(views.size(), 1);
   for (int round = 0; round < std::max(1, s.options.view_check.rounds); ++round) {
     const ViewModel model = build_model(s, excluded);
-    std::vector<ViewCheck> checks(views.size());
-    tbb::parallel_for(std::size_t{0}, views.size(),
-                      [&](std::size_t k) { checks[k] = check_view(s, model, views[k], tripod_centre,
-                                             tripod.off_axis_deg[views[k]],
-                                             tripod.residual_m[views[k]]);
-                      });
-    bool changed = false;
+    tbb::parallel_for(std::size_t{0}, views.size(), [&](std::size_t k) {
+      if (!due[k]) return;
+      s.result.frames[views[k]].check = check_view(s, model, views[k], tripod_centre,
+                                                   tripod.off_axis_deg[views[k]],
+                                                   tripod.residual_m[views[k]]);
+    });
+    std::vector<std::size_t> changed;
     for (std::size_t k = 0; k < views.size(); ++k) {
-      const char flagged = checks[k].checked && !checks[k].verified;
-      changed |= flagged != excluded[views[k]];
+      const ViewCheck& c = s.result.frames[views[k]].check;
+      const char flagged = c.checked && !c.verified;
+      if (flagged != excluded[views[k]]) changed.push_back(k);
       excluded[views[k]] = flagged;
-      s.result.frames[views[k]].check = std::move(checks[k]);
     }
-    if (!changed) break;
+    if (changed.empty()) break;
+    tbb::parallel_for(std::size_t{0}, views.size(), [&](std::size_t k) {
+      due[k] = std::any_of(changed.begin(), changed.end(), [&](std::size_t j) {
+        return j == k || reaches(s, views[j], boxes[k]);
+      });
+    });
   }
 }
 
