@@ -1,6 +1,7 @@
 // Whole-sequence alignment on reduced inputs: a simulated bedroom turn with exact ground truth
 // (fewer views than the 50-view demo, whose numbers are in docs/benchmarks.md), a blank frame
 // that must be reported and left out, and the first 7-Scenes frames.
+#include <locard/alignment/alignment_defaults.hpp>
 #include <locard/alignment/sequential_alignment.hpp>
 #include <locard/alignment/stage_report.hpp>
 #include <locard/alignment/trajectory_eval.hpp>
@@ -236,6 +237,43 @@ TEST(SequentialAlignment, SevenScenesFirstFramesOdometry) {
   EXPECT_TRUE(r.unregistered_frame_indices().empty());
   EXPECT_EQ(r.pieces, 1u);
   EXPECT_LT(ate(seq, r), 0.02);
+}
+
+// Real hand-held video with motion-capture ground truth, aligned with the data's own defaults
+// (no flags): every frame registered and verified (a desk's clutter fixes every view), and the
+// trajectory within the 12 mm of the motion capture. The self-check once held video to
+// the tripod's rotation-only bound and flagged all 50 frames of this desk.
+TEST(SequentialAlignment, TumDeskVideoWithDataDefaultsIsVerified) {
+  const fs::path data = test::shared_data() / "tum-fr2-desk-50";
+  if (!fs::exists(data)) GTEST_SKIP() << data << " is missing";
+  const RgbdSequence seq = open_rgbd_sequence(data);
+  const AlignmentOptions o = default_alignment_options(seq.traits);
+  ASSERT_EQ(o.mode, AlignmentMode::Odometry);
+  const AlignmentResult r = align_sequence(seq, o);
+  EXPECT_EQ(r.pieces, 1u);
+  EXPECT_TRUE(r.unregistered_frame_indices().empty());
+  EXPECT_TRUE(r.flagged_frame_indices().empty());
+  EXPECT_TRUE(r.enough_trusted());
+  EXPECT_LT(absolute_trajectory_error(seq.ground_truth, r.trajectory(0), {}).translation.rmse, 0.012);
+}
+
+// A bare wall in the middle of hand-held video (constant depth: a plane facing the camera): six
+// degrees of freedom, of which the plane fixes three. Never trusted.
+TEST(SequentialAlignment, BareWallViewIsNeverTrustedInVideo) {
+  const std::size_t wall = 6;
+  const RgbdSequence seq = bedroom_with_flat_depth("bare-wall-video", wall, 1.2);
+  AlignmentOptions o;
+  o.mode = AlignmentMode::Odometry;
+  o.max_frames = 12;
+  o.loop_closure = false;
+  const AlignmentResult r = align_sequence(seq, o);
+  ASSERT_EQ(r.frames.size(), 12u);
+  const FrameAlignment& f = r.frames[wall];
+  EXPECT_FALSE(f.trusted()) << "constraint " << f.check.constraint;
+  if (f.status == FrameStatus::Registered) {
+    EXPECT_LT(f.check.constraint, o.view_check.min_constraint_6dof);
+    EXPECT_FALSE(f.check.reason.empty());
+  }
 }
 
 }  // namespace

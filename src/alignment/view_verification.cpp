@@ -279,10 +279,12 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
     reasons.push_back(fmt::format("its camera stands {:.0f} mm from where the tripod's head puts "
                                   "it (allowed {:.0f} mm)",
                                   1000 * c.tripod_residual_m, 1000 * limits.max_tripod_residual_m));
-  if (c.constraint < limits.min_constraint)
+  const bool rotation_only = o.mode == AlignmentMode::Cumulative;
+  const double min_constraint = rotation_only ? limits.min_constraint : limits.min_constraint_6dof;
+  if (c.constraint < min_constraint)
     reasons.push_back(fmt::format("geometry does not fix its pose (constraint {:.4f}, need >= "
                                   "{:.3f}: a bare wall or plane)",
-                                  c.constraint, limits.min_constraint));
+                                  c.constraint, min_constraint));
   c.verified = reasons.empty();
   for (const std::string& reason : reasons) c.reason += (c.reason.empty() ? "" : "; ") + reason;
   // Confidence: the smallest margin to any limit, 1 far inside all of them, 0 at or past one.
@@ -300,8 +302,7 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
                                       below(c.correction_deg, limits.max_correction_deg),
                                       below(c.free_space, limits.max_free_space),
                                       above(c.overlap, limits.min_overlap, 1.0),
-                                      above(c.constraint, limits.min_constraint,
-                                            5.0 * limits.min_constraint)});
+                                      above(c.constraint, min_constraint, 5.0 * min_constraint)});
   c.confidence = c.verified ? std::clamp(confidence, 0.0, 1.0) : 0.0;
   return c;
 }
