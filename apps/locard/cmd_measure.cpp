@@ -41,11 +41,14 @@ struct MeasureCli {
 
 int run_measure(const MeasureCli& o, const GlobalOptions& global) {
   const auto t0 = std::chrono::steady_clock::now();
-  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir);
+  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir, fx::CaseAccess::Change);
   const fx::MarkerSet markers = fx::read_markers(folder.root() / "evidence" / "markers.json");
   fx::SnapOptions so;
   so.search_radius_m = o.radius;
   fx::LogStep step;
+  // Every file a measurement may write, kept aside until its step is logged (all or nothing).
+  fx::CaseChange change(folder, {"measurements/reference.json", "measurements/table.json",
+                                 "measurements/table.csv", "measurements/measurements.json"});
   nlohmann::json params = {{"snap_radius_m", o.radius}};
   if (!o.reference.empty()) {
     const auto refs = fx::read_reference_measurements(
@@ -120,7 +123,7 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
   step.parameters_json = params.dump();
   step.inputs.push_back("mesh/mesh.ply");
   step.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  folder.append_log_step(step);
+  change.commit(step);
   if (!o.no_report) fx::refresh_case_report(folder);
   print_log_head(folder.root());
   return 0;

@@ -31,7 +31,7 @@ struct TrajectoryCli {
 
 int run_trajectory(const TrajectoryCli& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir);
+  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir, fx::CaseAccess::Change);
   const fx::MarkerSet markers = fx::read_markers(folder.root() / "evidence" / "markers.json");
   fx::TrajectoryInput in;
   in.name = o.name;
@@ -45,6 +45,7 @@ int run_trajectory(const TrajectoryCli& o) {
     if (existing.name == a.name)
       throw InputError(fmt::format("a trajectory named '{}' exists already in this case", a.name));
   all.push_back(a);
+  fx::CaseChange change(folder, {"trajectories/analyses.json"});
   {
     AtomicFile f(folder.path("trajectories/analyses.json"), false);
     f.stream() << fx::trajectory_analyses_json(all) << '\n';
@@ -67,7 +68,7 @@ int run_trajectory(const TrajectoryCli& o) {
   s.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   s.inputs = {"mesh/mesh.ply"};
   s.outputs = {"trajectories/analyses.json"};
-  folder.append_log_step(s);
+  change.commit(s);
   if (!o.no_report) fx::refresh_case_report(folder);
   print_log_head(folder.root());
   return 0;

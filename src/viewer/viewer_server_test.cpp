@@ -109,7 +109,11 @@ struct Fixture {
     write_text(case_dir / "mesh/mesh.json", R"({"triangles": 2, "inferred_triangles": 1})");
     write_text(case_dir / "simulations/drop/events.json", R"({"events": []})");
     write_text(case_dir / "simulations/drop/animation.glb", "glTF");
-    folder.update_manifest();
+    forensics::LogStep step;
+    step.step = "test fixture";
+    step.outputs = {"case.json", "mesh/mesh.json", "simulations/drop/events.json",
+                    "simulations/drop/animation.glb"};
+    folder.append_log_step(step);
     write_text(web_root / "index.html", "<!doctype html><title>viewer</title>");
     write_text(web_root / "app.js", "console.log(1);");
     write_text(dir / "secret.txt", "outside the case");
