@@ -303,16 +303,24 @@ std::string CaseFolder::case_json_text() const { return read_text(root_ / kCase)
 CaseChange::CaseChange(CaseFolder& folder, std::vector<fs::path> may_write)
     : folder_(folder), paths_(std::move(may_write)) {
   undo_ = folder_.root() / kUndo / fmt::format("{}-{}", ::getpid(), g_undo_counter++);
-  for (const fs::path& p : paths_) {
-    const fs::path full = folder_.root() / p;
-    existed_.push_back(fs::is_regular_file(full));
-    if (!existed_.back()) continue;
-    fs::create_directories((undo_ / p).parent_path());
-    // A hard link keeps the old bytes at no cost: the writers replace files by rename
-    // (AtomicFile), so the link still holds the previous version afterwards.
+  try {
+    for (const fs::path& p : paths_) {
+      const fs::path full = folder_.root() / p;
+      existed_.push_back(fs::is_regular_file(full));
+      if (!existed_.back()) continue;
+      fs::create_directories((undo_ / p).parent_path());
+      // A hard link keeps the old bytes at no cost: the writers replace files by rename
+      // (AtomicFile), so the link still holds the previous version afterwards.
+      std::error_code ec;
+      fs::create_hard_link(full, undo_ / p, ec);
+      if (ec) fs::copy_file(full, undo_ / p);
+    }
+  } catch (...) {
+    // Nothing was written yet: only what was kept aside goes.
     std::error_code ec;
-    fs::create_hard_link(full, undo_ / p, ec);
-    if (ec) fs::copy_file(full, undo_ / p);
+    fs::remove_all(undo_, ec);
+    fs::remove(folder_.root() / kUndo, ec);
+    throw;
   }
 }
 

@@ -275,5 +275,32 @@ TEST(ViewerServer, SavesMarkersThroughTheIntegrityLog) {
                                                                   report.problems[0].detail);
 }
 
+// Issue 14: the viewer's saves go through the same transaction as the CLI's - a case that does
+// not verify (a recorded file deleted, one planted) takes no marker: 409 with the finding,
+// nothing written. Put back, the same request is saved (201) and the case verifies.
+TEST(CaseApi, RefusesToAddToACaseThatDoesNotVerify) {
+  Fixture f;
+  CaseApi api(f.case_dir);
+  const std::string mesh_json = R"({"triangles": 2, "inferred_triangles": 1})";
+  fs::remove(f.case_dir / "mesh/mesh.json");
+  write_text(f.case_dir / "planted.txt", "x");
+  std::ifstream log_in(f.case_dir / "log.jsonl");
+  const std::string log((std::istreambuf_iterator<char>(log_in)), {});
+  const std::string body = R"({"position": [1, 2, 3], "label": "Casing", "snap": false})";
+  ApiResponse r = api.handle("POST", "/api/markers", body);
+  EXPECT_EQ(r.status, 409) << r.body;
+  EXPECT_NE(r.body.find("mesh/mesh.json"), std::string::npos) << r.body;
+  EXPECT_NE(r.body.find("planted.txt"), std::string::npos) << r.body;
+  EXPECT_FALSE(fs::exists(f.case_dir / "evidence/markers.json"));
+  std::ifstream after(f.case_dir / "log.jsonl");
+  EXPECT_EQ(std::string((std::istreambuf_iterator<char>(after)), {}), log);
+  write_text(f.case_dir / "mesh/mesh.json", mesh_json);
+  fs::remove(f.case_dir / "planted.txt");
+  r = api.handle("POST", "/api/markers", body);
+  EXPECT_EQ(r.status, 201) << r.body;
+  const forensics::VerifyReport report = forensics::verify_case(f.case_dir, false);
+  EXPECT_TRUE(report.ok()) << (report.problems.empty() ? "" : report.problems[0].path);
+}
+
 }  // namespace
 }  // namespace locard::viewer
