@@ -51,6 +51,15 @@ int run_trajectory(const TrajectoryCli& o) {
     f.stream() << fx::trajectory_analyses_json(all) << '\n';
     f.commit();
   }
+  fx::LogStep s;
+  s.step = "trajectory";
+  s.parameters_json = nlohmann::json{{"name", o.name}, {"points", o.points}, {"sigma_m", o.sigma}}.dump();
+  s.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  s.inputs = {"mesh/mesh.ply"};
+  s.outputs = {"trajectories/analyses.json"};
+  change.commit(s);
+  if (!o.no_report) fx::refresh_case_report(folder);
+  // Printed once everything is saved: not a receipt for a failed save.
   fmt::print("{}: horizontal {:.2f} deg, vertical {:.2f} deg, cone half-angle {:.2f} deg (k=2)\n",
              a.name, a.horizontal_angle_deg, a.vertical_angle_deg, a.cone_half_angle_deg);
   for (const auto* h : {&a.forward, &a.backward}) {
@@ -62,14 +71,6 @@ int run_trajectory(const TrajectoryCli& o) {
     else
       fmt::print("{}: {}: no surface met\n", a.name, way);
   }
-  fx::LogStep s;
-  s.step = "trajectory";
-  s.parameters_json = nlohmann::json{{"name", o.name}, {"points", o.points}, {"sigma_m", o.sigma}}.dump();
-  s.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  s.inputs = {"mesh/mesh.ply"};
-  s.outputs = {"trajectories/analyses.json"};
-  change.commit(s);
-  if (!o.no_report) fx::refresh_case_report(folder);
   print_log_head(folder.root());
   return 0;
 }

@@ -88,15 +88,15 @@ fs::path cached_scan() {
   const std::string key = forensics::sha256_file(LOCARD_CLI_PATH).substr(0, 16);
   const fs::path cache = fs::temp_directory_path() / "locard-tests" / ("bedroom-scan-50-" + key);
   if (fs::is_directory(cache)) return cache;
-  for (const auto& e : fs::directory_iterator(cache.parent_path())) {  // earlier builds' scans
+  std::error_code ec;  // processes of the suite run at once: another may be removing it too
+  for (const auto& e : fs::directory_iterator(cache.parent_path(), ec)) {  // earlier builds'
     const std::string name = e.path().filename().string();
     if (name.rfind("bedroom-scan-50-", 0) == 0 && name.rfind(cache.filename().string(), 0) != 0)
-      fs::remove_all(e.path());
+      fs::remove_all(e.path(), ec);
   }
   const fs::path temp = cache.string() + ".tmp-" + std::to_string(::getpid());
   const auto sim = run_cli("--quiet scan-sim -o " + q(temp) + " --views 50");
   EXPECT_EQ(sim.exit_code, 0) << sim.output;
-  std::error_code ec;
   fs::rename(temp, cache, ec);  // another process may have finished first: same bytes
   fs::remove_all(temp, ec);
   return cache;
