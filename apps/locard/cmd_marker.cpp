@@ -28,21 +28,24 @@ struct MarkerCli {
   bool no_report = false;
 };
 
+// One transaction: the markers files and their log step are saved together or not at all
+// (a full disk leaves the case as it was), then the report as a step of its own.
 void save(fx::CaseFolder& folder, const fx::MarkerSet& set, const std::string& step,
           const nlohmann::json& params, double seconds, bool report) {
-  fx::write_markers(folder.path("evidence/markers.json"), set);
   fx::LogStep s;
   s.step = step;
   s.parameters_json = params.dump();
   s.duration_s = seconds;
   s.outputs = {"evidence/markers.json", "evidence/markers.csv"};
-  folder.append_log_step(s);
+  fx::CaseChange change(folder, s.outputs);
+  fx::write_markers(folder.path("evidence/markers.json"), set);
+  change.commit(s);
   if (report) fx::refresh_case_report(folder);
 }
 
 int run_add(const MarkerCli& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir);
+  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir, fx::CaseAccess::Change);
   fx::MarkerSet set = fx::read_markers(folder.root() / "evidence" / "markers.json");
   const Eigen::Vector3d p = parse_case_point(o.at, set);
   fx::EvidenceMarker m;
@@ -56,20 +59,21 @@ int run_add(const MarkerCli& o) {
     m.snapped = true;
   }
   m.expanded_uncertainty_m = 2.0 * std::sqrt(std::max(0.0, s.covariance.trace()));
-  const fx::EvidenceMarker& added = set.add(m);
+  const fx::EvidenceMarker added = set.add(m);
+  save(folder, set, "marker add",
+       {{"label", o.label}, {"at", o.at}, {"snap", !o.no_snap}, {"note", o.note}},
+       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), !o.no_report);
+  // Only now, with everything saved: a line printed before a failed save was a false receipt.
   const Eigen::Vector3d local = set.frame.to_local(added.world);
   fmt::print("marker {} '{}' at ({:.4f}, {:.4f}, {:.4f}) in the case frame, +- {:.4f} m\n",
              added.number, added.label, local.x(), local.y(), local.z(),
              added.expanded_uncertainty_m);
-  save(folder, set, "marker add",
-       {{"label", o.label}, {"at", o.at}, {"snap", !o.no_snap}, {"note", o.note}},
-       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), !o.no_report);
   print_log_head(folder.root());
   return 0;
 }
 
 int run_list(const MarkerCli& o) {
-  const fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir);
+  const fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir, fx::CaseAccess::Read);
   const fx::MarkerSet set = fx::read_markers(folder.root() / "evidence" / "markers.json");
   fmt::print("{}", fx::markers_csv(set));
   return 0;
@@ -77,7 +81,7 @@ int run_list(const MarkerCli& o) {
 
 int run_frame(const MarkerCli& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir);
+  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir, fx::CaseAccess::Change);
   fx::MarkerSet set = fx::read_markers(folder.root() / "evidence" / "markers.json");
   set.frame = fx::CaseFrame::from_points(parse_case_point(o.origin, set),
                                          parse_case_point(o.x_point, set),

@@ -41,11 +41,15 @@ struct MeasureCli {
 
 int run_measure(const MeasureCli& o, const GlobalOptions& global) {
   const auto t0 = std::chrono::steady_clock::now();
-  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir);
+  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir, fx::CaseAccess::Change);
   const fx::MarkerSet markers = fx::read_markers(folder.root() / "evidence" / "markers.json");
   fx::SnapOptions so;
   so.search_radius_m = o.radius;
   fx::LogStep step;
+  std::string result;  // printed once everything is saved: not a receipt for a failed save
+  // Every file a measurement may write, kept aside until its step is logged (all or nothing).
+  fx::CaseChange change(folder, {"measurements/reference.json", "measurements/table.json",
+                                 "measurements/table.csv", "measurements/measurements.json"});
   nlohmann::json params = {{"snap_radius_m", o.radius}};
   if (!o.reference.empty()) {
     const auto refs = fx::read_reference_measurements(
@@ -65,12 +69,13 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
     }
     fx::write_measurement_table(folder, rows);
     if (!global.quiet) {
-      fmt::print("{:<18} {:>10} {:>10} {:>9} {:>9}\n", "object", "real cm", "model cm",
-                 "error mm", "U mm");
+      result += fmt::format("{:<18} {:>10} {:>10} {:>9} {:>9}\n", "object", "real cm",
+                            "model cm", "error mm", "U mm");
       for (const auto& r : rows)
-        fmt::print("{:<18} {:>10.2f} {:>10.2f} {:>9.1f} {:>9.1f} {}\n", r.name, 100 * r.real_m,
-                   100 * r.model_m, 1000 * r.error_m, 1000 * r.expanded_uncertainty_m,
-                   r.within_uncertainty ? "" : "(outside U)");
+        result += fmt::format("{:<18} {:>10.2f} {:>10.2f} {:>9.1f} {:>9.1f} {}\n", r.name,
+                              100 * r.real_m, 100 * r.model_m, 1000 * r.error_m,
+                              1000 * r.expanded_uncertainty_m,
+                              r.within_uncertainty ? "" : "(outside U)");
     }
     step.step = "measure reference";
     params["reference"] = fs::absolute(o.reference).string();
@@ -86,8 +91,8 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
       const auto a = parse_case_point(o.from, markers), b = parse_case_point(o.to, markers);
       const auto m = fx::measure_point_to_point(model, a, b, so);
       written = fx::append_measurement(folder, name, m);
-      fmt::print("{}: {:.4f} m +- {:.4f} m (k=2); ends {} and {}\n", name, m.distance_m,
-                 m.expanded_uncertainty_m, m.a.feature, m.b.feature);
+      result += fmt::format("{}: {:.4f} m +- {:.4f} m (k=2); ends {} and {}\n", name,
+                            m.distance_m, m.expanded_uncertainty_m, m.a.feature, m.b.feature);
       params["kind"] = "point_to_point";
       params["from"] = o.from;
       params["to"] = o.to;
@@ -95,8 +100,8 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
       const auto p = parse_case_point(o.point, markers), q = parse_case_point(o.plane, markers);
       const auto m = fx::measure_point_to_plane(model, p, q, o.plane_radius, so);
       written = fx::append_measurement(folder, name, m);
-      fmt::print("{}: {:.4f} m +- {:.4f} m (k=2) from the plane\n", name, m.distance_m,
-                 m.expanded_uncertainty_m);
+      result += fmt::format("{}: {:.4f} m +- {:.4f} m (k=2) from the plane\n", name,
+                            m.distance_m, m.expanded_uncertainty_m);
       params["kind"] = "point_to_plane";
       params["point"] = o.point;
       params["plane"] = o.plane;
@@ -104,8 +109,8 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
       const auto q = parse_case_point(o.plane, markers), r = parse_case_point(o.plane2, markers);
       const auto m = fx::measure_plane_angle(model, q, r, o.plane_radius, so);
       written = fx::append_measurement(folder, name, m);
-      fmt::print("{}: {:.2f} deg +- {:.2f} deg (k=2)\n", name, m.angle_deg,
-                 m.expanded_uncertainty_deg);
+      result += fmt::format("{}: {:.2f} deg +- {:.2f} deg (k=2)\n", name, m.angle_deg,
+                            m.expanded_uncertainty_deg);
       params["kind"] = "plane_angle";
       params["plane"] = o.plane;
       params["plane2"] = o.plane2;
@@ -120,8 +125,9 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
   step.parameters_json = params.dump();
   step.inputs.push_back("mesh/mesh.ply");
   step.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  folder.append_log_step(step);
+  change.commit(step);
   if (!o.no_report) fx::refresh_case_report(folder);
+  fmt::print("{}", result);
   print_log_head(folder.root());
   return 0;
 }

@@ -47,7 +47,7 @@ int run(const SimulateCliOptions& o, const GlobalOptions& global) {
                    e.body, e.other, e.position.x(), e.position.y(), e.position.z(), e.time, e.speed);
     fmt::print("simulate: wrote {}{}\n", s.folder.string(),
                s.logged ? " (logged in the case's log.jsonl)"
-                        : " (not a Locard case folder: no case.json, so nothing was logged)");
+                        : " (not a Locard case folder: no manifest.json, so nothing was logged)");
   }
   if (s.logged) print_log_head(o.case_dir);
   return 0;

@@ -31,7 +31,7 @@ struct TrajectoryCli {
 
 int run_trajectory(const TrajectoryCli& o) {
   const auto t0 = std::chrono::steady_clock::now();
-  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir);
+  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir, fx::CaseAccess::Change);
   const fx::MarkerSet markers = fx::read_markers(folder.root() / "evidence" / "markers.json");
   fx::TrajectoryInput in;
   in.name = o.name;
@@ -45,11 +45,21 @@ int run_trajectory(const TrajectoryCli& o) {
     if (existing.name == a.name)
       throw InputError(fmt::format("a trajectory named '{}' exists already in this case", a.name));
   all.push_back(a);
+  fx::CaseChange change(folder, {"trajectories/analyses.json"});
   {
     AtomicFile f(folder.path("trajectories/analyses.json"), false);
     f.stream() << fx::trajectory_analyses_json(all) << '\n';
     f.commit();
   }
+  fx::LogStep s;
+  s.step = "trajectory";
+  s.parameters_json = nlohmann::json{{"name", o.name}, {"points", o.points}, {"sigma_m", o.sigma}}.dump();
+  s.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  s.inputs = {"mesh/mesh.ply"};
+  s.outputs = {"trajectories/analyses.json"};
+  change.commit(s);
+  if (!o.no_report) fx::refresh_case_report(folder);
+  // Printed once everything is saved: not a receipt for a failed save.
   fmt::print("{}: horizontal {:.2f} deg, vertical {:.2f} deg, cone half-angle {:.2f} deg (k=2)\n",
              a.name, a.horizontal_angle_deg, a.vertical_angle_deg, a.cone_half_angle_deg);
   for (const auto* h : {&a.forward, &a.backward}) {
@@ -61,14 +71,6 @@ int run_trajectory(const TrajectoryCli& o) {
     else
       fmt::print("{}: {}: no surface met\n", a.name, way);
   }
-  fx::LogStep s;
-  s.step = "trajectory";
-  s.parameters_json = nlohmann::json{{"name", o.name}, {"points", o.points}, {"sigma_m", o.sigma}}.dump();
-  s.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  s.inputs = {"mesh/mesh.ply"};
-  s.outputs = {"trajectories/analyses.json"};
-  folder.append_log_step(s);
-  if (!o.no_report) fx::refresh_case_report(folder);
   print_log_head(folder.root());
   return 0;
 }

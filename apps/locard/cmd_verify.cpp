@@ -1,7 +1,9 @@
-// `locard verify CASE_DIR`: re-hashes a case folder (manifest, log chain, recorded inputs) and
-// reports every changed, missing or added file. Exit 0 intact, 1 on any mismatch, 2 not a case.
+// `locard verify CASE_DIR`: re-hashes a case folder (the log's recorded outputs, its chain, the
+// manifest, recorded inputs) and reports every changed, missing or added file. Exit 0 intact,
+// 1 on any mismatch, 2 not a case, 3 (kExitCaseIncomplete) a case whose command did not finish.
 #include "commands.hpp"
 
+#include <locard/forensics/anchors.hpp>
 #include <locard/forensics/case_folder.hpp>
 
 #include <fmt/format.h>
@@ -15,6 +17,8 @@ struct VerifyCli {
   std::string case_dir;
   bool skip_inputs = false;
   std::string expect_head;
+  std::string public_key;  // Ed25519, PEM: the case must carry a signature by it that holds
+  std::string tsa_cert;    // the TSA's CA certificate, PEM: every stored time stamp must hold
 };
 
 int run_verify(const VerifyCli& o, const GlobalOptions& global) {
@@ -35,15 +39,24 @@ int run_verify(const VerifyCli& o, const GlobalOptions& global) {
     else
       since = "; the log ends at the expected head";
   }
+  std::vector<std::string> notes;
+  if (!o.public_key.empty()) fx::check_signatures(o.case_dir, o.public_key, r, notes);
+  if (!o.tsa_cert.empty()) fx::check_timestamps(o.case_dir, o.tsa_cert, r, notes);
+  for (const std::string& n : notes) fmt::print("verify: anchor {}\n", n);
   for (const fx::VerifyProblem& p : r.problems)
     fmt::print(stderr, "verify: {}: {} - {}\n", to_string(p.kind), p.path, p.detail);
+  // An incomplete case is never "OK": it says so, and exits apart from a tampered one.
+  const std::string verdict =
+      r.ok() ? "OK, nothing changed" + since
+      : r.only_incomplete()
+          ? "INCOMPLETE: the command that made it did not finish (intact up to its last step)"
+          : fmt::format("{} problem(s)", r.problems.size());
   if (!global.quiet || !r.ok())
     fmt::print("verify: {}: {} case files, {} inputs, {} log lines checked: {}\n", o.case_dir,
-               r.files_checked, r.inputs_checked, r.log_lines,
-               r.ok() ? "OK, nothing changed" + since
-                      : fmt::format("{} problem(s)", r.problems.size()));
+               r.files_checked, r.inputs_checked, r.log_lines, verdict);
   fmt::print("case log head: sha256 {}\n", r.log_head_sha256);
-  return r.ok() ? 0 : 1;
+  if (r.ok()) return 0;
+  return r.only_incomplete() ? fx::kExitCaseIncomplete : 1;
 }
 
 }  // namespace
@@ -59,6 +72,12 @@ void register_verify(CLI::App& app, GlobalOptions& global) {
   cmd->add_option("--expect-head", o->expect_head,
                   "A log head (sha256 hex) a command printed earlier: exit 1 unless the log "
                   "still holds it (later steps are reported, not refused)");
+  cmd->add_option("--public-key", o->public_key,
+                  "Ed25519 public key (PEM): exit 1 unless a signature by it (locard sign) holds "
+                  "and its log head is still in the log");
+  cmd->add_option("--tsa-cert", o->tsa_cert,
+                  "CA certificate of the time-stamp authority (PEM): exit 1 unless every stored "
+                  "RFC 3161 time stamp verifies and its log head is still in the log");
   set_runner(cmd, [o, &global] { return run_verify(*o, global); });
 }
 

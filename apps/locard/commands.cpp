@@ -38,6 +38,8 @@ void register_all(CLI::App& app, GlobalOptions& global) {
   register_trajectory(app, global);
   register_simulate(app, global);
   register_view(app, global);
+  register_sign(app, global);
+  register_timestamp(app, global);
 }
 
 int run_selected(CLI::App& app) {

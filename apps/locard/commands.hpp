@@ -41,5 +41,7 @@ void register_marker(CLI::App&, GlobalOptions&);
 void register_trajectory(CLI::App&, GlobalOptions&);
 void register_simulate(CLI::App&, GlobalOptions&);
 void register_view(CLI::App&, GlobalOptions&);
+void register_sign(CLI::App&, GlobalOptions&);
+void register_timestamp(CLI::App&, GlobalOptions&);
 
 }  // namespace locard::cli

@@ -2,6 +2,7 @@
 #include "commands.hpp"
 
 #include <locard/core/error.hpp>
+#include <locard/forensics/case_folder.hpp>
 
 #include <CLI/CLI.hpp>
 
@@ -23,6 +24,9 @@ int main(int argc, char** argv) {
   }
   try {
     return locard::cli::run_selected(app);
+  } catch (const locard::forensics::CaseNotIntact& e) {
+    std::fprintf(stderr, "locard: refused: %s\n", e.what());
+    return locard::forensics::kExitCaseNotIntact;
   } catch (const locard::InputError& e) {
     std::fprintf(stderr, "locard: error: %s\n", e.what());
     return 2;

@@ -30,10 +30,17 @@ AtomicFile::~AtomicFile() {
   }
 }
 
-void AtomicFile::commit() {
+void AtomicFile::finish() {
+  if (finished_) return;
   stream_.flush();
   if (!stream_) throw Error(target_.string() + ": write failed (disk full?)");
   stream_.close();
+  if (!stream_) throw Error(target_.string() + ": write failed on close (disk full?)");
+  finished_ = true;
+}
+
+void AtomicFile::commit() {
+  finish();
   std::error_code ec;
   std::filesystem::rename(temp_, target_, ec);
   if (ec) throw Error(target_.string() + ": cannot move finished file into place: " + ec.message());

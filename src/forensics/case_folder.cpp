@@ -1,6 +1,7 @@
 #include <locard/forensics/case_folder.hpp>
 
 #include "forensics/case_lock.hpp"
+#include "forensics/case_log.hpp"
 #include "forensics/json_util.hpp"
 
 #include <locard/core/atomic_file.hpp>
@@ -11,20 +12,18 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <atomic>
 #include <fstream>
-#include <map>
 #include <sstream>
 
 namespace locard::forensics {
-namespace {
+
+namespace detail {
 
 namespace fs = std::filesystem;
-using nlohmann::json;
-
-constexpr const char* kManifest = "manifest.json";
-constexpr const char* kLog = "log.jsonl";
-constexpr const char* kCase = "case.json";
 
 std::string read_text(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -34,16 +33,50 @@ std::string read_text(const fs::path& path) {
   return ss.str();
 }
 
-// Lines of log.jsonl without their '\n' (an empty file has none).
-std::vector<std::string> log_lines(const fs::path& path) {
+std::vector<std::string> split_log_lines(std::string_view text) {
   std::vector<std::string> lines;
-  if (!fs::exists(path)) return lines;
-  std::ifstream in(path, std::ios::binary);
-  std::string line;
-  while (std::getline(in, line))
-    if (!line.empty()) lines.push_back(line);
+  std::size_t pos = 0;
+  while (pos < text.size()) {
+    std::size_t end = text.find('\n', pos);
+    if (end == std::string_view::npos) end = text.size();
+    if (end > pos) lines.emplace_back(text.substr(pos, end - pos));
+    pos = end + 1;
+  }
   return lines;
 }
+
+std::vector<std::string> log_lines(const fs::path& root) {
+  if (!fs::exists(root / kLog)) return {};
+  return split_log_lines(read_text(root / kLog));
+}
+
+nlohmann::json parse_json_file(const fs::path& path) {
+  const std::string text = read_text(path);
+  try {
+    return nlohmann::json::parse(text);
+  } catch (const nlohmann::json::exception& e) {  // syntax, and numbers out of range (1e400)
+    throw_input_error(path, fmt::format("not valid JSON: {}", e.what()));
+  }
+}
+
+std::optional<StepPhase> parse_phase(const nlohmann::json& line) {
+  const auto it = line.find("phase");
+  if (it == line.end()) return StepPhase::Single;
+  if (!it->is_string()) return std::nullopt;
+  for (StepPhase p : {StepPhase::Begin, StepPhase::Complete, StepPhase::Failed})
+    if (it->get<std::string>() == to_string(p)) return p;
+  return std::nullopt;
+}
+
+}  // namespace detail
+
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using namespace detail;
+
+std::atomic<unsigned> g_undo_counter{0};
 
 FileRecord record(const fs::path& root, const fs::path& p) {
   const fs::path full = p.is_absolute() ? p : root / p;
@@ -59,16 +92,101 @@ json record_json(const FileRecord& r) {
   return {{"path", r.path}, {"bytes", r.bytes}, {"sha256", r.sha256}};
 }
 
-json parse_json_file(const fs::path& path) {
-  const std::string text = read_text(path);
+json parse_parameters(const LogStep& step) {
+  json parameters;
   try {
-    return json::parse(text);
+    parameters = json::parse(step.parameters_json.empty() ? "{}" : step.parameters_json);
   } catch (const json::exception& e) {  // syntax, and numbers out of range (1e400)
-    throw_input_error(path, fmt::format("not valid JSON: {}", e.what()));
+    throw InputError(fmt::format("log step '{}': parameters are not valid JSON: {}", step.step,
+                                 e.what()));
   }
+  if (!parameters.is_object())
+    throw InputError(fmt::format("log step '{}': parameters must be a JSON object", step.step));
+  return parameters;
+}
+
+// The manifest as the log records the case: each output at the hash its last step logged,
+// and the log itself. Nothing is read from the disk, so a file deleted or planted since
+// cannot be laundered into it by the next step.
+json manifest_from_log(const fs::path& root, const std::string& log_text) {
+  const std::vector<std::string> lines = split_log_lines(log_text);
+  json files = json::object();
+  for (std::size_t i = 0; i < lines.size(); ++i) {
+    json line;
+    try {
+      line = json::parse(lines[i]);
+    } catch (const json::exception&) {
+      throw_input_error(root / kLog, fmt::format("line {} is not JSON: the case's record is "
+                                                 "damaged; nothing was written",
+                                                 i + 1));
+    }
+    for (const json& o : line.value("outputs", json::array()))
+      files[o.value("path", "")] = {{"bytes", o.value("bytes", std::uintmax_t{0})},
+                                    {"sha256", o.value("sha256", "")}};
+    for (const json& r : line.value("removed", json::array()))
+      if (r.is_string()) files.erase(r.get<std::string>());
+  }
+  files[kLog] = {{"bytes", log_text.size()}, {"sha256", sha256_hex(log_text)}};
+  return {{"format", "locard-case-manifest/2"},
+          {"source", "log"},
+          {"files", files},
+          {"log_lines", lines.size()},
+          {"log_head_sha256", lines.empty() ? std::string() : sha256_hex(lines.back())}};
+}
+
+// Both files are written in full (where a full disk shows) before either replaces the old one;
+// if the manifest's rename fails after the log's, the old log is put back.
+void write_log_and_manifest(const fs::path& root, const std::string& log_text) {
+  const std::string manifest = manifest_from_log(root, log_text).dump(1) + '\n';
+  AtomicFile log_file(root / kLog, true);
+  log_file.stream() << log_text;
+  log_file.finish();
+  AtomicFile manifest_file(root / kManifest, false);
+  manifest_file.stream() << manifest;
+  manifest_file.finish();
+  const fs::path log_path = root / kLog;
+  const fs::path kept = root / fmt::format("{}.old-{}", kLog, ::getpid());
+  std::error_code ec;
+  const bool had_log = fs::exists(log_path);
+  if (had_log) fs::create_hard_link(log_path, kept);
+  log_file.commit();
+  try {
+    manifest_file.commit();
+  } catch (...) {
+    if (had_log) fs::rename(kept, log_path, ec);
+    else fs::remove(log_path, ec);
+    throw;
+  }
+  if (had_log) fs::remove(kept, ec);
+}
+
+std::string describe(const std::vector<VerifyProblem>& problems) {
+  std::string out;
+  const std::size_t shown = std::min<std::size_t>(problems.size(), 5);
+  for (std::size_t i = 0; i < shown; ++i)
+    out += fmt::format("\n  {}: {} - {}", to_string(problems[i].kind), problems[i].path,
+                       problems[i].detail);
+  if (problems.size() > shown) out += fmt::format("\n  ... and {} more", problems.size() - shown);
+  return out;
 }
 
 }  // namespace
+
+std::string_view to_string(StepPhase phase) {
+  switch (phase) {
+    case StepPhase::Single: return "single";
+    case StepPhase::Begin: return "begin";
+    case StepPhase::Complete: return "complete";
+    case StepPhase::Failed: return "failed";
+  }
+  return "?";
+}
+
+CaseNotIntact::CaseNotIntact(const fs::path& root, std::vector<VerifyProblem> problems)
+    : Error(fmt::format("{}: the case does not verify, so it was not changed ({} finding(s); "
+                        "`locard verify` reports them all):{}",
+                        root.string(), problems.size(), describe(problems))),
+      problems_(std::move(problems)) {}
 
 std::string utc_now_iso8601() {
   const auto now = std::chrono::system_clock::now();
@@ -97,24 +215,40 @@ CaseFolder CaseFolder::create(const fs::path& root, bool force) {
     if (!force)
       throw_input_error(root, "case folder is not empty; pass --force to replace it (a case is "
                               "never written over otherwise)");
-    if (!fs::exists(root / kCase))
-      throw_input_error(root, "folder is not empty and holds no case.json: it is not a Locard "
-                              "case, so it is not replaced even with --force");
+    if (!fs::exists(root / kManifest))
+      throw_input_error(root, "folder is not empty and holds no manifest.json: it is not a "
+                              "Locard case, so it is not replaced even with --force");
     // Held before anything is removed: a command still working on the old case finishes first.
     std::shared_ptr<CaseLock> lock = CaseLock::acquire(root);
+    // A case that does not verify is evidence of what happened to it: --force does not
+    // destroy it (remove it by hand, deliberately). An incomplete one is replaced: re-running
+    // the reconstruct that did not finish is how it is completed.
+    VerifyReport old;
+    try {
+      old = verify_case(root, false);
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("--force replaces only a case that verifies: {}", e.what()));
+    }
+    if (!old.ok() && !old.only_incomplete()) throw CaseNotIntact(root, std::move(old.problems));
     for (const auto& entry : fs::directory_iterator(root)) fs::remove_all(entry.path());
-    return CaseFolder(root, std::move(lock));
+    return CaseFolder(root, std::move(lock), CaseAccess::Change);
   }
   fs::create_directories(root);
-  return CaseFolder(root, CaseLock::acquire(root));
+  return CaseFolder(root, CaseLock::acquire(root), CaseAccess::Change);
 }
 
-CaseFolder CaseFolder::open(const fs::path& root) {
+CaseFolder CaseFolder::open(const fs::path& root, CaseAccess access) {
   if (!fs::is_directory(root)) throw_input_error(root, "no such case folder");
-  for (const char* name : {kCase, kManifest})
-    if (!fs::is_regular_file(root / name))
-      throw_input_error(root, fmt::format("not a Locard case folder: {} is missing", name));
-  return CaseFolder(root, CaseLock::acquire(root));
+  if (!fs::is_regular_file(root / kManifest))
+    throw_input_error(root, "not a Locard case folder: manifest.json is missing");
+  CaseFolder folder(root, CaseLock::acquire(root), access);
+  if (access == CaseAccess::Change) {
+    // Verified under the lock, before anything is written: a step appended to a case that
+    // does not verify would bury the finding under a new, consistent manifest.
+    VerifyReport report = verify_case(root, false);
+    if (!report.ok()) throw CaseNotIntact(root, std::move(report.problems));
+  }
+  return folder;
 }
 
 fs::path CaseFolder::path(const fs::path& relative) const {
@@ -124,17 +258,13 @@ fs::path CaseFolder::path(const fs::path& relative) const {
 }
 
 std::size_t CaseFolder::append_log_step(const LogStep& step) {
-  json parameters;
-  try {
-    parameters = json::parse(step.parameters_json.empty() ? "{}" : step.parameters_json);
-  } catch (const json::exception& e) {  // syntax, and numbers out of range (1e400)
-    throw InputError(fmt::format("log step '{}': parameters are not valid JSON: {}", step.step,
-                                 e.what()));
-  }
-  if (!parameters.is_object())
-    throw InputError(fmt::format("log step '{}': parameters must be a JSON object", step.step));
+  if (access_ != CaseAccess::Change)
+    throw Error(fmt::format("{}: the case was opened for reading; log step '{}' refused",
+                            root_.string(), step.step));
+  const json parameters = parse_parameters(step);
   const fs::path log_path = root_ / kLog;
-  const std::vector<std::string> lines = log_lines(log_path);
+  const std::string old_log = fs::exists(log_path) ? read_text(log_path) : std::string();
+  const std::vector<std::string> lines = split_log_lines(old_log);
   json inputs = json::array(), outputs = json::array();
   for (const fs::path& p : step.inputs) inputs.push_back(record_json(record(root_, p)));
   for (const fs::path& p : step.outputs) {
@@ -150,153 +280,72 @@ std::size_t CaseFolder::append_log_step(const LogStep& step) {
                {"inputs", inputs},
                {"outputs", outputs},
                {"prev_sha256", lines.empty() ? std::string() : sha256_hex(lines.back())}};
-  {
-    std::ofstream out(log_path, std::ios::binary | std::ios::app);
-    out << line.dump() << '\n';
-    out.flush();
-    if (!out) throw Error(fmt::format("{}: could not append to the log", log_path.string()));
+  if (step.phase != StepPhase::Single) line["phase"] = std::string(to_string(step.phase));
+  if (!step.removed.empty()) {
+    json removed = json::array();
+    for (const fs::path& p : step.removed) {
+      if (fs::exists(root_ / p)) throw_input_error(root_ / p, "logged as removed, still on disk");
+      removed.push_back(p.generic_string());
+    }
+    line["removed"] = removed;
   }
-  update_manifest();
+  std::string log_text = old_log;
+  if (!log_text.empty() && log_text.back() != '\n') log_text += '\n';
+  log_text += line.dump() + '\n';
+  write_log_and_manifest(root_, log_text);
   return seq;
-}
-
-void CaseFolder::update_manifest() {
-  json files = json::object();
-  for (const std::string& rel : list_files_recursive(root_)) {
-    if (rel == kManifest || rel.find(".tmp") != std::string::npos) continue;
-    const FileRecord r = record(root_, rel);
-    files[rel] = {{"bytes", r.bytes}, {"sha256", r.sha256}};
-  }
-  const std::vector<std::string> lines = log_lines(root_ / kLog);
-  json manifest = {{"format", "locard-case-manifest/1"},
-                   {"files", files},
-                   {"log_lines", lines.size()},
-                   {"log_head_sha256", lines.empty() ? std::string() : sha256_hex(lines.back())}};
-  AtomicFile file(root_ / kManifest, false);
-  file.stream() << manifest.dump(1) << '\n';
-  file.commit();
 }
 
 TriangleMesh CaseFolder::load_mesh() const { return read_ply_mesh(root_ / "mesh" / "mesh.ply"); }
 PointCloud CaseFolder::load_cloud() const { return read_ply(root_ / "cloud" / "registered.ply"); }
 std::string CaseFolder::case_json_text() const { return read_text(root_ / kCase); }
 
-std::string_view to_string(VerifyProblem::Kind kind) {
-  switch (kind) {
-    case VerifyProblem::Kind::Changed: return "changed";
-    case VerifyProblem::Kind::Missing: return "missing";
-    case VerifyProblem::Kind::Added: return "added";
-    case VerifyProblem::Kind::LogChain: return "log chain broken";
-    case VerifyProblem::Kind::InputChanged: return "input changed";
-    case VerifyProblem::Kind::InputMissing: return "input missing";
-    case VerifyProblem::Kind::Manifest: return "manifest disagrees with log";
+CaseChange::CaseChange(CaseFolder& folder, std::vector<fs::path> may_write)
+    : folder_(folder), paths_(std::move(may_write)) {
+  undo_ = folder_.root() / kUndo / fmt::format("{}-{}", ::getpid(), g_undo_counter++);
+  try {
+    for (const fs::path& p : paths_) {
+      const fs::path full = folder_.root() / p;
+      existed_.push_back(fs::is_regular_file(full));
+      if (!existed_.back()) continue;
+      fs::create_directories((undo_ / p).parent_path());
+      // A hard link keeps the old bytes at no cost: the writers replace files by rename
+      // (AtomicFile), so the link still holds the previous version afterwards.
+      std::error_code ec;
+      fs::create_hard_link(full, undo_ / p, ec);
+      if (ec) fs::copy_file(full, undo_ / p);
+    }
+  } catch (...) {
+    // Nothing was written yet: only what was kept aside goes.
+    std::error_code ec;
+    fs::remove_all(undo_, ec);
+    fs::remove(folder_.root() / kUndo, ec);
+    throw;
   }
-  return "?";
 }
 
-std::string log_head_sha256(const fs::path& root) {
-  const std::vector<std::string> lines = log_lines(root / kLog);
-  return lines.empty() ? std::string() : sha256_hex(lines.back());
+CaseChange::~CaseChange() {
+  if (!committed_) roll_back();
 }
 
-std::optional<std::size_t> find_log_line(const fs::path& root, const std::string& hex) {
-  const std::vector<std::string> lines = log_lines(root / kLog);
-  for (std::size_t i = 0; i < lines.size(); ++i)
-    if (sha256_hex(lines[i]) == hex) return i;
-  return std::nullopt;
+void CaseChange::roll_back() noexcept {
+  std::error_code ec;
+  for (std::size_t i = 0; i < paths_.size(); ++i) {
+    const fs::path full = folder_.root() / paths_[i];
+    if (existed_[i]) fs::rename(undo_ / paths_[i], full, ec);
+    else fs::remove(full, ec);
+  }
+  fs::remove_all(undo_, ec);
+  fs::remove(folder_.root() / kUndo, ec);  // only when empty
 }
 
-VerifyReport verify_case(const fs::path& root, bool check_inputs) {
-  const CaseFolder folder = CaseFolder::open(root);
-  VerifyReport report;
-  using Kind = VerifyProblem::Kind;
-  const json manifest = parse_json_file(root / kManifest);
-  if (!manifest.contains("files") || !manifest["files"].is_object())
-    throw_input_error(root / kManifest, "no \"files\" object");
-  std::map<std::string, std::string> manifest_hash;
-  for (const auto& [rel, entry] : manifest["files"].items()) {
-    ++report.files_checked;
-    const std::string expected = entry.value("sha256", "");
-    manifest_hash[rel] = expected;
-    const fs::path full = root / rel;
-    if (!fs::is_regular_file(full)) {
-      report.problems.push_back({Kind::Missing, rel, "listed in manifest.json, not on disk"});
-      continue;
-    }
-    const std::string found = sha256_file(full);
-    if (found != expected)
-      report.problems.push_back(
-          {Kind::Changed, rel,
-           fmt::format("sha256 {} recorded, {} found ({} bytes recorded, {} found)", expected,
-                       found, entry.value("bytes", std::uintmax_t{0}), fs::file_size(full))});
-  }
-  for (const std::string& rel : list_files_recursive(root))
-    if (rel != kManifest && !manifest_hash.count(rel))
-      report.problems.push_back({Kind::Added, rel, "on disk, not in manifest.json"});
-
-  // The log's hash chain, and the last logged hash of each output against the manifest.
-  const std::vector<std::string> lines = log_lines(root / kLog);
-  report.log_lines = lines.size();
-  std::map<std::string, std::string> last_logged;
-  for (std::size_t i = 0; i < lines.size(); ++i) {
-    json line;
-    try {
-      line = json::parse(lines[i]);
-    } catch (const json::exception&) {
-      report.problems.push_back({Kind::LogChain, kLog, fmt::format("line {} is not JSON", i + 1)});
-      continue;
-    }
-    const std::string prev = line.value("prev_sha256", "");
-    const std::string expected = i == 0 ? std::string() : sha256_hex(lines[i - 1]);
-    if (prev != expected)
-      report.problems.push_back(
-          {Kind::LogChain, kLog,
-           fmt::format("line {}: prev_sha256 {} but the previous line hashes to {}", i + 1,
-                       prev.empty() ? "(none)" : prev, expected.empty() ? "(none)" : expected)});
-    if (line.value("seq", std::size_t{0}) != i)
-      report.problems.push_back(
-          {Kind::LogChain, kLog, fmt::format("line {}: seq {} out of order", i + 1,
-                                             line.value("seq", std::size_t{0}))});
-    if (line.contains("outputs"))
-      for (const json& o : line["outputs"]) last_logged[o.value("path", "")] = o.value("sha256", "");
-  }
-  const std::string head = lines.empty() ? std::string() : sha256_hex(lines.back());
-  report.log_head_sha256 = head;
-  if (manifest.value("log_head_sha256", "") != head)
-    report.problems.push_back(
-        {Kind::LogChain, kLog,
-         fmt::format("the log's last line hashes to {}, manifest.json records {} (lines "
-                     "removed or added after the manifest)",
-                     head, manifest.value("log_head_sha256", ""))});
-  for (const auto& [rel, logged] : last_logged) {
-    const auto it = manifest_hash.find(rel);
-    if (it != manifest_hash.end() && it->second != logged)
-      report.problems.push_back(
-          {Kind::Manifest, rel,
-           fmt::format("the log's last step recorded sha256 {}, manifest.json {}", logged,
-                       it->second)});
-  }
-
-  if (check_inputs) {
-    const json case_json = parse_json_file(root / kCase);
-    if (case_json.contains("inputs") && case_json["inputs"].contains("files")) {
-      const fs::path input_root = case_json["inputs"].value("root", "");
-      for (const json& f : case_json["inputs"]["files"]) {
-        ++report.inputs_checked;
-        const fs::path p = input_root / f.value("path", "");
-        if (!fs::is_regular_file(p)) {
-          report.problems.push_back({Kind::InputMissing, p.string(), "recorded input not found"});
-          continue;
-        }
-        const std::string found = sha256_file(p);
-        if (found != f.value("sha256", ""))
-          report.problems.push_back({Kind::InputChanged, p.string(),
-                                     fmt::format("sha256 {} at ingestion, {} now",
-                                                 f.value("sha256", ""), found)});
-      }
-    }
-  }
-  return report;
+std::size_t CaseChange::commit(const LogStep& step) {
+  const std::size_t seq = folder_.append_log_step(step);
+  committed_ = true;
+  std::error_code ec;
+  fs::remove_all(undo_, ec);
+  fs::remove(folder_.root() / kUndo, ec);
+  return seq;
 }
 
 }  // namespace locard::forensics

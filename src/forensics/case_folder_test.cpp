@@ -1,6 +1,7 @@
 // Case folder integrity: SHA-256 against published vectors, the append-only log's hash chain,
 // the manifest, and verify_case naming each changed, missing or added file.
 #include <locard/forensics/case_folder.hpp>
+#include <locard/forensics/evidence_markers.hpp>
 #include <locard/forensics/integrity.hpp>
 
 #include <locard/core/error.hpp>
@@ -10,8 +11,11 @@
 
 #include "test_support.hpp"
 
+#include <sys/resource.h>
+
 #include <atomic>
 #include <chrono>
+#include <csignal>
 #include <fstream>
 #include <set>
 #include <thread>
@@ -55,6 +59,17 @@ CaseFolder make_case(const fs::path& dir, const fs::path& input_dir) {
   return c;
 }
 
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+std::set<std::string> findings(const VerifyReport& r) {
+  std::set<std::string> out;
+  for (const auto& p : r.problems) out.insert(std::string(to_string(p.kind)) + " " + p.path);
+  return out;
+}
+
 TEST(Sha256, PublishedVectors) {
   // FIPS 180-2 examples.
   EXPECT_EQ(sha256_hex(std::string_view("abc")),
@@ -80,7 +95,7 @@ TEST(CaseFolder, RefusesToWriteOverWithoutForce) {
   EXPECT_THROW(CaseFolder::create(dir / "case", false), InputError);
   EXPECT_NO_THROW(CaseFolder::create(dir / "case", true));
   EXPECT_TRUE(fs::is_empty(dir / "case"));
-  EXPECT_THROW(CaseFolder::open(dir / "busy"), InputError);
+  EXPECT_THROW(CaseFolder::open(dir / "busy", CaseAccess::Read), InputError);
 }
 
 TEST(CaseFolder, LogIsAHashChainAndManifestListsEveryFile) {
@@ -166,24 +181,177 @@ TEST(VerifyCase, InputChangedAndLogTampering) {
 // it; the holder may open it again itself (re-entrant) without deadlocking.
 TEST(CaseFolder, HoldsTheCaseOneCommandAtATime) {
   const fs::path root = test::scratch_dir() / "locked";
-  { CaseFolder::create(root, false).update_manifest(); }
+  {
+    CaseFolder c = CaseFolder::create(root, false);
+    LogStep s;
+    s.step = "create";
+    c.append_log_step(s);
+  }
   std::ofstream(root / "case.json") << "{}";
   std::atomic<bool> released{false};
   std::atomic<bool> second_saw_release{false};
   std::thread holder([&] {
-    const CaseFolder first = CaseFolder::open(root);
-    const CaseFolder again = CaseFolder::open(root);  // the same thread: no deadlock
+    const CaseFolder first = CaseFolder::open(root, CaseAccess::Read);
+    const CaseFolder again = CaseFolder::open(root, CaseAccess::Read);  // the same thread: no deadlock
     std::this_thread::sleep_for(std::chrono::milliseconds(300));
     released = true;
   });
   std::this_thread::sleep_for(std::chrono::milliseconds(50));
   std::thread waiter([&] {
-    const CaseFolder second = CaseFolder::open(root);
+    const CaseFolder second = CaseFolder::open(root, CaseAccess::Read);
     second_saw_release = released.load();
   });
   holder.join();
   waiter.join();
   EXPECT_TRUE(second_saw_release) << "the second opener ran while the first held the case";
+}
+
+// Issue 14 (laundering): the manifest was re-hashed from the disk after every step, so a file
+// deleted or planted before a routine step vanished from the record. It is now written from
+// the log, and a command that changes the case verifies it first and refuses.
+TEST(CaseFolder, ManifestComesFromTheLogAndAChangeRefusesACaseThatDoesNotVerify) {
+  const fs::path dir = test::scratch_dir();
+  { make_case(dir, dir / "input"); }
+  const fs::path root = dir / "case";
+  fs::remove(root / "mesh" / "mesh.ply");
+  write(root / "planted.txt", "not from any step");
+  const std::string manifest = slurp(root / "manifest.json");
+  try {
+    CaseFolder::open(root, CaseAccess::Change);
+    ADD_FAILURE() << "a case missing its mesh was opened for a change";
+  } catch (const CaseNotIntact& e) {
+    std::set<std::string> seen;
+    for (const auto& p : e.problems()) seen.insert(std::string(to_string(p.kind)) + " " + p.path);
+    EXPECT_TRUE(seen.count("missing mesh/mesh.ply")) << e.what();
+    EXPECT_TRUE(seen.count("added planted.txt")) << e.what();
+    EXPECT_NE(std::string(e.what()).find("mesh/mesh.ply"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(slurp(root / "manifest.json"), manifest);
+  // Read access still works (verify, listing), and appending through it is refused.
+  CaseFolder read = CaseFolder::open(root, CaseAccess::Read);
+  LogStep s;
+  s.step = "x";
+  EXPECT_THROW(read.append_log_step(s), Error);
+  // The manifest lists what the log recorded, not what is on disk.
+  const auto m = nlohmann::json::parse(manifest);
+  EXPECT_TRUE(m["files"].contains("mesh/mesh.ply"));
+  EXPECT_FALSE(m["files"].contains("planted.txt"));
+  EXPECT_EQ(m["source"], "log");
+  // A step that removes an output says so, and the record drops it.
+  const fs::path other = dir / "second";
+  CaseFolder c = make_case(other, other / "input");
+  fs::remove(other / "case" / "mesh" / "mesh.ply");
+  LogStep removal;
+  removal.step = "remove mesh";
+  removal.removed = {"mesh/mesh.ply"};
+  c.append_log_step(removal);
+  EXPECT_TRUE(verify_case(other / "case").ok());
+}
+
+// Issue 14 (disk full): `marker add` appended its log line, then failed writing the manifest,
+// and the case read as tampered. A change is now all or nothing: here a file-size limit makes
+// the log's rewrite fail (EFBIG, as a full disk fails a write), and the markers file the step
+// had written, the log and the manifest are all as they were; nothing partial is left.
+TEST(CaseChange, AWriteThatFailsLeavesTheCaseAsItWas) {
+  const fs::path dir = test::scratch_dir();
+  CaseFolder c = make_case(dir, dir / "input");
+  const fs::path root = dir / "case";
+  write(root / "evidence" / "markers.json", "{}");
+  {
+    LogStep first;
+    first.step = "marker add";
+    first.outputs = {"evidence/markers.json"};
+    c.append_log_step(first);
+  }
+  const std::string log = slurp(root / "log.jsonl"), manifest = slurp(root / "manifest.json");
+  const std::string markers = slurp(root / "evidence" / "markers.json");
+  ASSERT_GT(log.size(), 200u);
+  {
+    LogStep step;
+    step.step = "marker add";
+    step.outputs = {"evidence/markers.json", "evidence/markers.csv"};
+    CaseChange change(c, step.outputs);
+    MarkerSet set;
+    EvidenceMarker m;
+    m.label = "casing";
+    set.add(m);
+    write_markers(root / "evidence" / "markers.json", set);  // small: fits under the limit
+    ASSERT_NE(slurp(root / "evidence" / "markers.json"), markers);
+    // The log grows past the limit: its rewrite fails like a write to a full disk.
+    rlimit old{};
+    ASSERT_EQ(getrlimit(RLIMIT_FSIZE, &old), 0);
+    const auto old_handler = std::signal(SIGXFSZ, SIG_IGN);
+    rlimit tight = old;
+    tight.rlim_cur = log.size() + 100;
+    ASSERT_EQ(setrlimit(RLIMIT_FSIZE, &tight), 0);
+    EXPECT_THROW(change.commit(step), Error);
+    setrlimit(RLIMIT_FSIZE, &old);
+    std::signal(SIGXFSZ, old_handler);
+  }
+  EXPECT_EQ(slurp(root / "log.jsonl"), log);
+  EXPECT_EQ(slurp(root / "manifest.json"), manifest);
+  EXPECT_EQ(slurp(root / "evidence" / "markers.json"), markers);
+  EXPECT_FALSE(fs::exists(root / "evidence" / "markers.csv"));
+  EXPECT_FALSE(fs::exists(root / ".locard-undo"));
+  const VerifyReport r = verify_case(root);
+  EXPECT_TRUE(r.ok()) << (r.problems.empty() ? "" : r.problems[0].path + ": " + r.problems[0].detail);
+}
+
+// Issue 14 (half cases): a command of several steps logs "begin" first and "complete" last;
+// killed or failed in between, verify says INCOMPLETE with the last step - never OK.
+TEST(VerifyCase, ACommandThatDidNotCompleteIsIncomplete) {
+  const fs::path dir = test::scratch_dir();
+  CaseFolder c = CaseFolder::create(dir / "case", false);
+  LogStep begin;
+  begin.step = "reconstruct";
+  begin.phase = StepPhase::Begin;
+  c.append_log_step(begin);
+  write(c.path("case.json"), "{}");
+  LogStep ingest;
+  ingest.step = "ingest";
+  ingest.outputs = {"case.json"};
+  c.append_log_step(ingest);
+  VerifyReport r = verify_case(dir / "case");
+  ASSERT_EQ(r.problems.size(), 1u);
+  EXPECT_TRUE(r.only_incomplete());
+  EXPECT_NE(r.problems[0].detail.find("INCOMPLETE"), std::string::npos) << r.problems[0].detail;
+  EXPECT_NE(r.problems[0].detail.find("line 2 'ingest'"), std::string::npos) << r.problems[0].detail;
+  LogStep failed = begin;
+  failed.phase = StepPhase::Failed;
+  failed.parameters_json = R"({"error": "depth/000003.png: corrupt PNG"})";
+  c.append_log_step(failed);
+  r = verify_case(dir / "case");
+  ASSERT_TRUE(r.only_incomplete());
+  EXPECT_NE(r.problems[0].detail.find("corrupt PNG"), std::string::npos) << r.problems[0].detail;
+  LogStep complete = begin;
+  complete.phase = StepPhase::Complete;
+  c.append_log_step(complete);
+  EXPECT_TRUE(verify_case(dir / "case").ok());
+}
+
+// Issue 14 (inputs): an input recorded by absolute path (a frame named outside the input
+// folder) is re-hashed where it lives; a file added to the input folder is reported.
+TEST(VerifyCase, InputsWhereverTheyLiveAndFilesAddedToTheInputFolder) {
+  const fs::path dir = test::scratch_dir();
+  CaseFolder c = make_case(dir, dir / "input");
+  write(dir / "elsewhere" / "frame.png", "outside");
+  nlohmann::json cj = nlohmann::json::parse(slurp(dir / "case" / "case.json"));
+  cj["inputs"]["files"].push_back({{"path", (dir / "elsewhere" / "frame.png").string()},
+                                   {"bytes", 7},
+                                   {"sha256", sha256_file(dir / "elsewhere" / "frame.png")}});
+  write(dir / "case" / "case.json", cj.dump());
+  LogStep s;
+  s.step = "ingest again";
+  s.outputs = {"case.json"};
+  c.append_log_step(s);
+  EXPECT_TRUE(verify_case(dir / "case").ok());
+  flip_byte(dir / "elsewhere" / "frame.png", 0);
+  write(dir / "input" / "depth" / "000001.png", "added later");
+  const VerifyReport r = verify_case(dir / "case");
+  const auto seen = findings(r);
+  EXPECT_TRUE(seen.count("input changed " + (dir / "elsewhere" / "frame.png").string()));
+  EXPECT_TRUE(seen.count("input added " + (dir / "input" / "depth" / "000001.png").string()));
+  EXPECT_EQ(r.problems.size(), 2u);
 }
 
 }  // namespace

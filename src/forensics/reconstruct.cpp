@@ -195,10 +195,78 @@ static json view_confidence_json(const AlignmentResult& result) {
   return views;
 }
 
-ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_dir,
-                                    const ReconstructParameters& P, bool force,
-                                    const StageCallbacks& cb) {
-  const auto start = Clock::now();
+namespace {
+
+// What the checks before anything is written found: the run's typed choices and its input.
+struct ReconstructPlan {
+  fs::path input;
+  fs::path input_root;  // absolute, normalised
+  DatasetFormat format = DatasetFormat::Unknown;
+  AlignmentMode mode = AlignmentMode::Cumulative;
+  IcpMethod odometry_icp = IcpMethod::PointToPlane;
+  std::vector<MeshFormat> formats;
+  RgbdSequence sequence;
+  fs::path reference;
+  std::vector<ReferenceMeasurement> refs;
+};
+
+// Frames a list names outside the input folder (an absolute or ../ path) are read like any
+// other, so they are inputs: hashed and recorded by their absolute path.
+std::vector<fs::path> frames_outside(const RgbdSequence& sequence, const fs::path& input_root) {
+  std::set<fs::path> outside;
+  for (const FrameEntry& f : sequence.frames)
+    for (const fs::path& p : {f.depth_path, f.color_path}) {
+      if (p.empty()) continue;
+      const fs::path full = fs::absolute(p).lexically_normal();
+      const fs::path rel = full.lexically_relative(input_root);
+      if (rel.empty() || *rel.begin() == "..") outside.insert(full);
+    }
+  return {outside.begin(), outside.end()};
+}
+
+// Every check that can be made before the case folder is touched (bad input: exit 2, nothing
+// written).
+ReconstructPlan plan_reconstruct(const fs::path& input, const ReconstructParameters& P) {
+  ReconstructPlan plan;
+  plan.input = input;
+  if (!fs::exists(input)) throw_input_error(input, "no such file or folder");
+  plan.format = detect_format(input);
+  if (plan.format != DatasetFormat::Tum && plan.format != DatasetFormat::SevenScenes &&
+      plan.format != DatasetFormat::Redwood)
+    throw_input_error(input, fmt::format("expected an RGB-D sequence folder (TUM, 7-Scenes, "
+                                         "Redwood or `locard scan-sim` output), found {}",
+                                         to_string(plan.format)));
+  const auto mode = parse_alignment_mode(P.mode);
+  if (!mode) throw InputError(fmt::format("mode must be cumulative or odometry, got '{}'", P.mode));
+  plan.mode = *mode;
+  const auto odometry_icp = parse_icp_method(P.odometry_icp);
+  if (!odometry_icp || *odometry_icp == IcpMethod::PointToPoint)
+    throw InputError(fmt::format("odometry_icp must be colored or point-to-plane, got '{}'",
+                                 P.odometry_icp));
+  plan.odometry_icp = *odometry_icp;
+  if (P.world_frame != "auto" && P.world_frame != "first-camera")
+    throw InputError(fmt::format("world_frame must be auto or first-camera, got '{}'", P.world_frame));
+  {
+    std::stringstream ss(P.formats);
+    std::string name;
+    while (std::getline(ss, name, ','))
+      if (const auto f = parse_mesh_format(name)) plan.formats.push_back(*f);
+      else throw InputError(fmt::format("formats: unknown mesh format '{}'", name));
+  }
+  plan.sequence = open_rgbd_sequence(input);
+  if (plan.sequence.frames.size() < 2)
+    throw_input_error(input, "the sequence needs at least two frames");
+  plan.reference = P.reference;
+  if (plan.reference.empty() && fs::is_regular_file(input / "measurements.json"))
+    plan.reference = input / "measurements.json";
+  if (!plan.reference.empty()) plan.refs = read_reference_measurements(plan.reference);  // fail early
+  plan.input_root = fs::absolute(input).lexically_normal();
+  return plan;
+}
+
+// The stages, each a logged step, between the "begin" and "complete" lines.
+void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const ReconstructParameters& P,
+                const StageCallbacks& cb, ReconstructSummary& summary) {
   auto begin = [&](const std::string& stage, std::size_t total) -> ProgressCallback {
     return cb.begin ? cb.begin(stage, total) : ProgressCallback{};
   };
@@ -208,49 +276,21 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
   auto note = [&](const std::string& m) {
     if (cb.log) cb.log(m);
   };
+  const fs::path& input = plan.input;
+  const fs::path& input_root = plan.input_root;
+  const fs::path& case_dir = folder.root();
+  const RgbdSequence& sequence = plan.sequence;
+  const DatasetFormat format = plan.format;
+  const fs::path& reference = plan.reference;
+  const std::vector<ReferenceMeasurement>& refs = plan.refs;
+  const std::vector<MeshFormat>& formats = plan.formats;
 
-  // ---- checks before anything is written
-  if (!fs::exists(input)) throw_input_error(input, "no such file or folder");
-  const DatasetFormat format = detect_format(input);
-  if (format != DatasetFormat::Tum && format != DatasetFormat::SevenScenes &&
-      format != DatasetFormat::Redwood)
-    throw_input_error(input, fmt::format("expected an RGB-D sequence folder (TUM, 7-Scenes, "
-                                         "Redwood or `locard scan-sim` output), found {}",
-                                         to_string(format)));
-  const auto mode = parse_alignment_mode(P.mode);
-  if (!mode) throw InputError(fmt::format("mode must be cumulative or odometry, got '{}'", P.mode));
-  const auto odometry_icp = parse_icp_method(P.odometry_icp);
-  if (!odometry_icp || *odometry_icp == IcpMethod::PointToPoint)
-    throw InputError(fmt::format("odometry_icp must be colored or point-to-plane, got '{}'",
-                                 P.odometry_icp));
-  if (P.world_frame != "auto" && P.world_frame != "first-camera")
-    throw InputError(fmt::format("world_frame must be auto or first-camera, got '{}'", P.world_frame));
-  std::vector<MeshFormat> formats;
-  {
-    std::stringstream ss(P.formats);
-    std::string name;
-    while (std::getline(ss, name, ','))
-      if (const auto f = parse_mesh_format(name)) formats.push_back(*f);
-      else throw InputError(fmt::format("formats: unknown mesh format '{}'", name));
-  }
-  const RgbdSequence sequence = open_rgbd_sequence(input);
-  if (sequence.frames.size() < 2) throw_input_error(input, "the sequence needs at least two frames");
-  fs::path reference = P.reference;
-  if (reference.empty() && fs::is_regular_file(input / "measurements.json"))
-    reference = input / "measurements.json";
-  std::vector<ReferenceMeasurement> refs;
-  if (!reference.empty()) refs = read_reference_measurements(reference);  // fail early
-  const fs::path input_root = fs::absolute(input).lexically_normal();
-
-  CaseFolder folder = CaseFolder::create(case_dir, force);
-  ReconstructSummary summary;
-  summary.case_dir = case_dir;
-  summary.frames = sequence.frames.size();
-
-  // ---- ingest: hash the inputs, write case.json
+  // ---- ingest: hash the inputs (and frames named outside the input folder), write case.json
   auto t0 = Clock::now();
-  const std::vector<FileRecord> inputs = hash_inputs(input_root, begin("hash inputs", 0));
+  std::vector<FileRecord> inputs = hash_inputs(input_root, begin("hash inputs", 0));
   end("hash inputs");
+  for (const fs::path& p : frames_outside(sequence, input_root))
+    inputs.push_back({p.string(), fs::file_size(p), sha256_file(p)});
   json input_files = json::array();
   for (const FileRecord& r : inputs)
     input_files.push_back({{"path", r.path}, {"bytes", r.bytes}, {"sha256", r.sha256}});
@@ -310,8 +350,8 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
   // ---- align
   t0 = Clock::now();
   AlignmentOptions ao = default_alignment_options(sequence.traits);  // ring sizes and the rest
-  ao.mode = *mode;
-  ao.odometry_method = *odometry_icp;
+  ao.mode = plan.mode;
+  ao.odometry_method = plan.odometry_icp;
   ao.voxel_size = P.align_voxel_m;
   ao.stride = P.stride;
   ao.min_depth_m = P.min_depth_m;
@@ -626,7 +666,47 @@ ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_
   summary.stage_seconds.emplace_back("report", seconds_since(t0));
   summary.report_html = report.html;
   summary.report_pdf = report.pdf;
+}
+
+// The bracket around the stages: "begin" before anything else (a case killed at any point
+// after it reads as incomplete), "failed" with the error when a stage throws, "complete" last.
+void log_phase(CaseFolder& folder, StepPhase phase, json parameters) {
+  LogStep s;
+  s.step = "reconstruct";
+  s.phase = phase;
+  s.parameters_json = parameters.dump();
+  folder.append_log_step(s);
+}
+
+}  // namespace
+
+ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_dir,
+                                    const ReconstructParameters& P, bool force,
+                                    const StageCallbacks& cb) {
+  const auto start = Clock::now();
+  const ReconstructPlan plan = plan_reconstruct(input, P);
+  CaseFolder folder = CaseFolder::create(case_dir, force);
+  log_phase(folder, StepPhase::Begin,
+            {{"input", plan.input_root.string()}, {"software_version", software_version()}});
+  ReconstructSummary summary;
+  summary.case_dir = case_dir;
+  summary.frames = plan.sequence.frames.size();
+  try {
+    run_stages(folder, plan, P, cb, summary);
+  } catch (const std::exception& e) {
+    try {
+      log_phase(folder, StepPhase::Failed, {{"error", e.what()}});
+    } catch (const std::exception&) {
+      // The log cannot take the failure (a full disk): the case still reads as incomplete.
+    }
+    throw;
+  }
   summary.seconds = seconds_since(start);
+  log_phase(folder, StepPhase::Complete,
+            {{"seconds", summary.seconds},
+             {"registered", summary.registered},
+             {"verified", summary.verified},
+             {"enough_verified", summary.enough_verified}});
   return summary;
 }
 

@@ -11,8 +11,13 @@
 
 #include "test_support.hpp"
 
+#include <sys/wait.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <chrono>
 #include <cstdlib>
+#include <thread>
 #include <filesystem>
 #include <fstream>
 
@@ -38,12 +43,70 @@ std::string read(const fs::path& p) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
+// The forgery of issue 14: a mesh byte changed, every record of its hash rewritten (log and
+// manifest), the chain re-made - consistent, so verify alone passes it.
+void forge_mesh_and_rechain(const fs::path& c) {
+  const fs::path mesh = c / "mesh" / "mesh.ply";
+  flip_byte(mesh, fs::file_size(mesh) / 2);
+  const std::string forged_hash = forensics::sha256_file(mesh);
+  std::ifstream log_in(c / "log.jsonl");
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(log_in, line);)
+    if (!line.empty()) lines.push_back(line);
+  log_in.close();
+  std::string previous, log_text;
+  for (std::string& line : lines) {
+    nlohmann::json j = nlohmann::json::parse(line);
+    for (auto& o : j["outputs"])
+      if (o["path"] == "mesh/mesh.ply") o["sha256"] = forged_hash;
+    j["prev_sha256"] = previous.empty() ? std::string() : forensics::sha256_hex(previous);
+    line = j.dump();
+    previous = line;
+    log_text += line + "\n";
+  }
+  std::ofstream(c / "log.jsonl", std::ios::trunc) << log_text;
+  nlohmann::json manifest = nlohmann::json::parse(std::ifstream(c / "manifest.json"));
+  manifest["files"]["mesh/mesh.ply"]["sha256"] = forged_hash;
+  manifest["files"]["log.jsonl"] = {{"bytes", log_text.size()}, {"sha256", forensics::sha256_hex(log_text)}};
+  manifest["log_head_sha256"] = forensics::sha256_hex(previous);
+  std::ofstream(c / "manifest.json", std::ios::trunc) << manifest.dump(2);
+}
+
+// Runs a bash script (written to a file: no second layer of quoting); its exit status.
+int sh(const std::string& script) {
+  const fs::path file = test::scratch_dir() / "script.sh";
+  std::ofstream(file) << script << "\n";
+  const int status = std::system(("/bin/bash " + q(file) + " > /dev/null 2>&1").c_str());
+  return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+}
+
+// The simulated 50-view scan every test of the suite starts from. ctest runs each test in its
+// own process, and simulating it took 4 of each test's ~6 s: it is made once per build of the
+// CLI (the cache is keyed by the binary's hash; scan-sim is deterministic) and copied into each
+// process's folder, which tests may change.
+fs::path cached_scan() {
+  const std::string key = forensics::sha256_file(LOCARD_CLI_PATH).substr(0, 16);
+  const fs::path cache = fs::temp_directory_path() / "locard-tests" / ("bedroom-scan-50-" + key);
+  if (fs::is_directory(cache)) return cache;
+  std::error_code ec;  // processes of the suite run at once: another may be removing it too
+  for (const auto& e : fs::directory_iterator(cache.parent_path(), ec)) {  // earlier builds'
+    const std::string name = e.path().filename().string();
+    if (name.rfind("bedroom-scan-50-", 0) == 0 && name.rfind(cache.filename().string(), 0) != 0)
+      fs::remove_all(e.path(), ec);
+  }
+  const fs::path temp = cache.string() + ".tmp-" + std::to_string(::getpid());
+  const auto sim = run_cli("--quiet scan-sim -o " + q(temp) + " --views 50");
+  EXPECT_EQ(sim.exit_code, 0) << sim.output;
+  fs::rename(temp, cache, ec);  // another process may have finished first: same bytes
+  fs::remove_all(temp, ec);
+  return cache;
+}
+
 class ReconstructCli : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
     dir_ = new fs::path(test::scratch_dir());
-    const auto sim = run_cli("scan-sim -o " + q(scan()) + " --views 50");
-    ASSERT_EQ(sim.exit_code, 0) << sim.output;
+    fs::copy(cached_scan(), scan(), fs::copy_options::recursive);
     const auto r = run_cli(reconstruct_args(case_dir()));
     ASSERT_EQ(r.exit_code, 0) << r.output;
     output_ = new std::string(r.output);
@@ -88,13 +151,17 @@ TEST_F(ReconstructCli, WritesTheDocumentedLayout) {
   EXPECT_NE(html.find("id=\"measurement-table\""), std::string::npos);
   EXPECT_NE(html.find("data:image/png;base64,"), std::string::npos);
   EXPECT_EQ(html.find("http://"), html.find("http://www.w3.org"));  // nothing fetched
-  // Every stage logged with hashes.
+  // Every stage logged with hashes, between the reconstruct's "begin" and "complete".
   std::ifstream log(case_dir() / "log.jsonl");
   std::vector<std::string> steps;
-  for (std::string line; std::getline(log, line);)
-    steps.push_back(nlohmann::json::parse(line)["step"]);
-  EXPECT_EQ(steps, (std::vector<std::string>{"ingest", "align", "mesh", "measure reference",
-                                             "report"}));
+  for (std::string line; std::getline(log, line);) {
+    const auto j = nlohmann::json::parse(line);
+    steps.push_back(j["step"].get<std::string>() +
+                    (j.contains("phase") ? " " + j["phase"].get<std::string>() : ""));
+  }
+  EXPECT_EQ(steps, (std::vector<std::string>{"reconstruct begin", "ingest", "align", "mesh",
+                                             "measure reference", "report",
+                                             "reconstruct complete"}));
 }
 
 TEST_F(ReconstructCli, VerifyPassesThenNamesAChangedMeshOrInput) {
@@ -183,31 +250,7 @@ TEST_F(ReconstructCli, APrintedLogHeadCatchesARechainedForgery) {
   EXPECT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("logged after the expected head"), std::string::npos) << r.output;
 
-  // The forgery: the mesh changed, every record of its hash rewritten, the chain re-made.
-  const fs::path mesh = c / "mesh" / "mesh.ply";
-  flip_byte(mesh, fs::file_size(mesh) / 2);
-  const std::string forged_hash = forensics::sha256_file(mesh);
-  std::ifstream log_in(c / "log.jsonl");
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(log_in, line);)
-    if (!line.empty()) lines.push_back(line);
-  log_in.close();
-  std::string previous, log_text;
-  for (std::string& line : lines) {
-    nlohmann::json j = nlohmann::json::parse(line);
-    for (auto& o : j["outputs"])
-      if (o["path"] == "mesh/mesh.ply") o["sha256"] = forged_hash;
-    j["prev_sha256"] = previous.empty() ? std::string() : forensics::sha256_hex(previous);
-    line = j.dump();
-    previous = line;
-    log_text += line + "\n";
-  }
-  std::ofstream(c / "log.jsonl", std::ios::trunc) << log_text;
-  nlohmann::json manifest = nlohmann::json::parse(std::ifstream(c / "manifest.json"));
-  manifest["files"]["mesh/mesh.ply"]["sha256"] = forged_hash;
-  manifest["files"]["log.jsonl"] = {{"bytes", log_text.size()}, {"sha256", forensics::sha256_hex(log_text)}};
-  manifest["log_head_sha256"] = forensics::sha256_hex(previous);
-  std::ofstream(c / "manifest.json", std::ios::trunc) << manifest.dump(2);
+  forge_mesh_and_rechain(c);
   r = run_cli("verify " + q(c));
   EXPECT_EQ(r.exit_code, 0) << "the forgery is consistent, verify alone passes it: " << r.output;
   r = run_cli("verify " + q(c) + " --expect-head " + head);
@@ -262,6 +305,226 @@ TEST_F(ReconstructCli, MarkersTrajectoriesAndMeasurementsJoinTheCaseThroughTheLo
   EXPECT_NE(html.find("id=\"trajectory-table\""), std::string::npos);
   r = run_cli("verify " + q(c));
   EXPECT_EQ(r.exit_code, 0) << r.output;
+}
+
+// Issue 14 (laundering): delete cloud/registered.ply, plant a file, run a routine command: the
+// manifest used to be re-hashed from the disk and verify then passed. Now the command verifies
+// first and refuses (exit 5) naming both, the manifest stays as it was, and verify names them.
+TEST_F(ReconstructCli, ARoutineCommandRefusesACaseThatDoesNotVerify) {
+  const fs::path c = *dir_ / "laundered-case";
+  ASSERT_EQ(run_cli(reconstruct_args(c)).exit_code, 0);
+  const fs::path cloud = c / "cloud" / "registered.ply";
+  const std::string cloud_bytes = read(cloud);
+  fs::remove(cloud);
+  std::ofstream(c / "mesh" / "planted.ply") << "ply\n";
+  const std::string manifest = read(c / "manifest.json");
+  auto r = run_cli("marker add " + q(c) + " --label later --at 1.92,-0.3,1.4 --no-report");
+  EXPECT_EQ(r.exit_code, 5) << r.output;
+  EXPECT_NE(r.output.find("missing: cloud/registered.ply"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("added: mesh/planted.ply"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("marker 1"), std::string::npos) << r.output;
+  EXPECT_EQ(read(c / "manifest.json"), manifest);
+  r = run_cli("measure " + q(c) + " --plane 1.92,-0.3,1.4 --plane2 1.92,-0.3,1.2");
+  EXPECT_EQ(r.exit_code, 5) << r.output;
+  r = run_cli("verify " + q(c));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("missing: cloud/registered.ply"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("added: mesh/planted.ply"), std::string::npos) << r.output;
+  // --force does not destroy a case that does not verify (it is evidence) either.
+  r = run_cli(reconstruct_args(c) + " --force");
+  EXPECT_EQ(r.exit_code, 5) << r.output;
+  // Put back, the case verifies and takes changes again.
+  fs::remove(c / "mesh" / "planted.ply");
+  std::ofstream(cloud, std::ios::binary) << cloud_bytes;
+  EXPECT_EQ(run_cli("verify " + q(c)).exit_code, 0);
+  r = run_cli("marker add " + q(c) + " --label later --at 1.92,-0.3,1.4 --no-report");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+}
+
+// Issue 14 (disk full): the log line was appended, the manifest failed, and "marker N" had
+// been printed before the save. Under a file-size limit (writes fail with EFBIG, as on a full
+// disk) the marker add fails, prints no marker line, and leaves the case byte for byte as it
+// was - it verifies and the next marker add works.
+TEST_F(ReconstructCli, AFailedWriteDuringMarkerAddLeavesTheCaseAsItWas) {
+  const fs::path c = *dir_ / "full-disk-case";
+  ASSERT_EQ(run_cli(reconstruct_args(c)).exit_code, 0);
+  const std::string log = read(c / "log.jsonl"), manifest = read(c / "manifest.json");
+  // Below the log's size (rewritten whole) and the manifest's, above the new markers files.
+  const std::uintmax_t limit_kb = std::min(log.size(), manifest.size()) / 1024;
+  ASSERT_GE(limit_kb, 2u);
+  const std::string command = "trap '' XFSZ; ulimit -f " + std::to_string(limit_kb) + "; '" +
+                              std::string(LOCARD_CLI_PATH) + "' marker add " + q(c) +
+                              " --label casing --at 1.92,-0.3,1.4 --no-report > " +
+                              q(*dir_ / "full-disk.out") + " 2>&1";
+  EXPECT_NE(sh(command), 0);
+  const std::string out = read(*dir_ / "full-disk.out");
+  EXPECT_EQ(out.find("marker 1"), std::string::npos) << out;
+  EXPECT_NE(out.find("write failed"), std::string::npos) << out;
+  EXPECT_EQ(read(c / "log.jsonl"), log);
+  EXPECT_EQ(read(c / "manifest.json"), manifest);
+  EXPECT_FALSE(fs::exists(c / "evidence" / "markers.json"));
+  EXPECT_FALSE(fs::exists(c / ".locard-undo"));
+  auto r = run_cli("verify " + q(c));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  r = run_cli("marker add " + q(c) + " --label casing --at 1.92,-0.3,1.4 --no-report");
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("marker 1 'casing'"), std::string::npos) << r.output;
+}
+
+// Issue 14 (half cases): a reconstruct that fails on a bad frame, or is killed, left a case
+// verify called intact. Now it is INCOMPLETE (exit 3) with its last step, takes no changes
+// (exit 5), and `reconstruct --force` replaces it.
+TEST_F(ReconstructCli, AFailedOrKilledReconstructIsIncomplete) {
+  const fs::path bad_scan = *dir_ / "bad-scan";
+  fs::copy(scan(), bad_scan, fs::copy_options::recursive);
+  const fs::path frame = bad_scan / "depth" / "000004.png";
+  const std::string png = read(frame);
+  std::ofstream(frame, std::ios::binary | std::ios::trunc) << png.substr(0, png.size() / 3);
+  const fs::path c = *dir_ / "failed-case";
+  const std::string args = "--quiet reconstruct " + q(bad_scan) + " -o " + q(c) +
+                           " --frames 8 --voxel 0.04 --mesh-voxel 0.03 --seed 7 --no-pdf";
+  auto r = run_cli(args);
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("000004.png"), std::string::npos) << r.output;
+  r = run_cli("verify " + q(c));
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_NE(r.output.find("INCOMPLETE"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("000004.png"), std::string::npos) << "the failure is in the log: " << r.output;
+  EXPECT_EQ(r.output.find("OK"), std::string::npos) << r.output;
+  r = run_cli("marker add " + q(c) + " --label x --at 1.92,-0.3,1.4 --no-report");
+  EXPECT_EQ(r.exit_code, 5) << r.output;
+
+  // Killed mid-way (after ingestion, during alignment): no "failed" line, still incomplete.
+  const fs::path killed = *dir_ / "killed-case";
+  const std::string background = "'" + std::string(LOCARD_CLI_PATH) + "' " +
+                                 reconstruct_args(killed) + " > /dev/null 2>&1 & echo $! > " +
+                                 q(*dir_ / "killed.pid");
+  ASSERT_EQ(sh(background), 0);
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (read(killed / "log.jsonl").find("\"step\":\"ingest\"") == std::string::npos &&
+         std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_EQ(sh("kill -9 $(cat " + q(*dir_ / "killed.pid") + ")"), 0);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  r = run_cli("verify " + q(killed));
+  EXPECT_EQ(r.exit_code, 3) << r.output;
+  EXPECT_NE(r.output.find("INCOMPLETE"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("'ingest'"), std::string::npos) << "the last step: " << r.output;
+  r = run_cli(reconstruct_args(killed) + " --force");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(run_cli("verify " + q(killed)).exit_code, 0);
+}
+
+// Issue 14 (anchors): `locard sign` with an Ed25519 key made by `openssl genpkey`; verify
+// --public-key holds on the signed case and after a routine command (reported as later
+// steps), and fails on the re-chained forgery that plain verify passes. RFC 3161: a request
+// for the head, answered by `openssl ts -reply` with a throwaway CA and TSA, stored in the
+// case and verified offline with the CA's certificate; the forgery breaks it too.
+TEST_F(ReconstructCli, SignaturesAndTimeStampsCatchTheRechainedForgery) {
+  const fs::path c = *dir_ / "signed-case";
+  ASSERT_EQ(run_cli(reconstruct_args(c)).exit_code, 0);
+  const fs::path keys = *dir_ / "keys";
+  fs::create_directories(keys);
+  ASSERT_EQ(sh("cd " + q(keys) + " && openssl genpkey -algorithm ed25519 -out key.pem && "
+               "openssl pkey -in key.pem -pubout -out pub.pem && "
+               "openssl genpkey -algorithm ed25519 -out other.pem && "
+               "openssl pkey -in other.pem -pubout -out other-pub.pem"), 0);
+  auto r = run_cli("verify " + q(c) + " --public-key " + q(keys / "pub.pem"));
+  EXPECT_EQ(r.exit_code, 1) << "not signed yet: " << r.output;
+  r = run_cli("sign " + q(c) + " --key " + q(keys / "key.pem"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = run_cli("verify " + q(c) + " --public-key " + q(keys / "pub.pem"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("signature holds"), std::string::npos) << r.output;
+  r = run_cli("verify " + q(c) + " --public-key " + q(keys / "other-pub.pem"));
+  EXPECT_EQ(r.exit_code, 1) << "signed by another key: " << r.output;
+
+  // A throwaway CA and TSA; the TSA answers the case's request.
+  ASSERT_EQ(sh("cd " + q(keys) + " && set -e; "
+               "openssl req -x509 -newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes -keyout ca.key "
+               "-out ca.crt -subj /CN=TestCA -days 2 -addext basicConstraints=critical,CA:TRUE "
+               "-addext keyUsage=critical,keyCertSign; "
+               "openssl req -newkey ec -pkeyopt ec_paramgen_curve:P-256 -nodes -keyout tsa.key "
+               "-out tsa.csr -subj /CN=TestTSA; "
+               "printf 'extendedKeyUsage=critical,timeStamping\nbasicConstraints=CA:FALSE\n' > ext.cnf; "
+               "openssl x509 -req -in tsa.csr -CA ca.crt -CAkey ca.key -CAcreateserial -out tsa.crt "
+               "-days 2 -extfile ext.cnf; "
+               "printf '[tsa]\ndefault_tsa=t\n[t]\nserial=./serial\nsigner_cert=./tsa.crt\n"
+               "signer_key=./tsa.key\ndefault_policy=1.2.3.4.1\ndigests=sha256\n"
+               "signer_digest=sha256\ness_cert_id_alg=sha256\n' > ts.cnf; echo 01 > serial"), 0);
+  r = run_cli("timestamp request " + q(c) + " -o " + q(keys / "req.tsq"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  ASSERT_EQ(sh("cd " + q(keys) + " && openssl ts -reply -config ts.cnf -queryfile req.tsq "
+               "-out resp.tsr"), 0);
+  r = run_cli("timestamp store " + q(c) + " " + q(keys / "resp.tsr"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // Anyone can check the token with openssl alone: its imprint is the log's last line's hash.
+  r = run_cli("verify " + q(c) + " --tsa-cert " + q(keys / "ca.crt"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("existed at"), std::string::npos) << r.output;
+  r = run_cli("verify " + q(c) + " --tsa-cert " + q(keys / "tsa.crt"));
+  EXPECT_EQ(r.exit_code, 1) << "the TSA's own certificate is no CA: " << r.output;
+
+  // A routine command after the anchors: they still hold, for the steps up to them.
+  r = run_cli("marker add " + q(c) + " --label later --at 1.92,-0.3,1.4 --no-report");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = run_cli("verify " + q(c) + " --public-key " + q(keys / "pub.pem") + " --tsa-cert " +
+              q(keys / "ca.crt"));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("logged after it"), std::string::npos) << r.output;
+
+  forge_mesh_and_rechain(c);
+  EXPECT_EQ(run_cli("verify " + q(c)).exit_code, 0) << "the forgery is consistent";
+  r = run_cli("verify " + q(c) + " --public-key " + q(keys / "pub.pem"));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("no longer in the log"), std::string::npos) << r.output;
+  r = run_cli("verify " + q(c) + " --tsa-cert " + q(keys / "ca.crt"));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("no longer in the log"), std::string::npos) << r.output;
+  // An edited signature file does not hold either.
+  for (const auto& e : fs::directory_iterator(c / "anchors"))
+    if (e.path().extension() == ".json") {
+      std::string text = read(e.path());
+      char& digit = text[text.find("log_lines ") + 10];
+      digit = digit == '9' ? '8' : '9';
+      std::ofstream(e.path(), std::ios::trunc) << text;
+    }
+  r = run_cli("verify " + q(c) + " --public-key " + q(keys / "pub.pem"));
+  EXPECT_NE(r.output.find("does not hold"), std::string::npos) << r.output;
+  for (const char* command : {"sign --help", "timestamp request --help", "timestamp store --help"})
+    EXPECT_EQ(run_cli(command).exit_code, 0) << command;
+}
+
+// Issue 14 (inputs): a frame depth.txt names by an absolute path outside the scan is used, so
+// it is hashed and recorded; a change to it, and a file added to the scan folder, are reported.
+TEST_F(ReconstructCli, FramesNamedOutsideTheInputAreHashedAndAddedInputsReported) {
+  const fs::path moved_scan = *dir_ / "moved-scan";
+  fs::copy(scan(), moved_scan, fs::copy_options::recursive);
+  const fs::path outside = *dir_ / "outside-frames" / "000002.png";
+  fs::create_directories(outside.parent_path());
+  fs::rename(moved_scan / "depth" / "000002.png", outside);
+  std::string list = read(moved_scan / "depth.txt");
+  const std::size_t at = list.find("depth/000002.png");
+  ASSERT_NE(at, std::string::npos);
+  list.replace(at, std::string("depth/000002.png").size(), outside.string());
+  std::ofstream(moved_scan / "depth.txt", std::ios::trunc) << list;
+  const fs::path c = *dir_ / "outside-case";
+  auto r = run_cli("--quiet reconstruct " + q(moved_scan) + " -o " + q(c) +
+                   " --frames 8 --voxel 0.04 --mesh-voxel 0.03 --seed 7 --no-pdf");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto cj = nlohmann::json::parse(read(c / "case.json"));
+  bool recorded = false;
+  for (const auto& f : cj["inputs"]["files"])
+    recorded |= f["path"] == outside.string() && f["sha256"] == sha256_file(outside);
+  EXPECT_TRUE(recorded) << "the frame outside the input folder is not among the inputs";
+  EXPECT_EQ(run_cli("verify " + q(c)).exit_code, 0);
+  flip_byte(outside, 100);
+  std::ofstream(moved_scan / "depth" / "later.png") << "added after ingestion";
+  r = run_cli("verify " + q(c));
+  EXPECT_EQ(r.exit_code, 1) << r.output;
+  EXPECT_NE(r.output.find("input changed: " + outside.string()), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("input added: " + (moved_scan / "depth" / "later.png").string()),
+            std::string::npos) << r.output;
 }
 
 }  // namespace

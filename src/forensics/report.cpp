@@ -554,6 +554,8 @@ ReportResult refresh_case_report(CaseFolder& folder) {
     o.render_height = p.value("render_height", o.render_height);
     o.pdf = p.value("pdf", o.pdf);
   }
+  CaseChange change(folder, {"report/report.html", "report/report.pdf"});
+  const bool had_pdf = fs::exists(folder.root() / "report" / "report.pdf");
   const ReportResult r = write_case_report(folder, o);
   LogStep s;
   s.step = "report";
@@ -561,7 +563,9 @@ ReportResult refresh_case_report(CaseFolder& folder) {
   s.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   s.outputs = {"report/report.html"};
   if (r.pdf) s.outputs.push_back("report/report.pdf");
-  folder.append_log_step(s);
+  if (had_pdf && !fs::exists(folder.root() / "report" / "report.pdf"))
+    s.removed.push_back("report/report.pdf");  // pdf no longer requested
+  change.commit(s);
   return r;
 }
 

@@ -327,8 +327,36 @@ class CloudStore {
 
 // ---- bodies ---------------------------------------------------------------------------------
 
+// Bytes the decoded cloud takes per point: positions, normals and colours as the cloud holds
+// them, every other field a float (a 1-byte field takes 4).
+std::size_t decoded_bytes_per_point(const Layout& layout) {
+  return 3 * sizeof(float) + (layout.normals ? 3 * sizeof(float) : 0) +
+         (layout.colors ? sizeof(Rgb8) : 0) + layout.scalar_names.size() * sizeof(float);
+}
+
+// A compressed body may expand 88-fold (a 3-byte LZF reference makes 264 bytes), and 1-byte
+// fields four-fold again as floats: a 1 MB file could ask for 450 MB. So what decoding it
+// allocates (the unpacked body and the cloud) must fit a budget that grows with the bytes the
+// file really holds: 64 MiB, plus 32 times the compressed bytes (well above what LZF achieves
+// on real clouds; a cloud that is nearly all NaN or zeros compresses more and is refused).
+void check_decoded_budget(const fs::path& path, const PcdHeader& h, const Layout& layout,
+                          std::uint64_t unpacked, std::uint64_t compressed) {
+  constexpr std::uint64_t kFloor = std::uint64_t{64} << 20;
+  constexpr std::uint64_t kRatio = 32;
+  const auto cloud = checked_mul(h.points, decoded_bytes_per_point(layout));
+  const std::uint64_t budget = kFloor + kRatio * compressed;
+  if (!cloud || *cloud + unpacked > budget)
+    throw_input_error(path, "binary_compressed body of " + std::to_string(compressed) +
+                                " bytes would decode to " + std::to_string(unpacked) +
+                                " bytes and a cloud of " +
+                                (cloud ? std::to_string(*cloud) : std::string("too many")) +
+                                " bytes, beyond the decoding budget of " + std::to_string(budget) +
+                                " bytes (64 MiB + 32 x the compressed size)");
+}
+
 // Checks the body can hold what the header declares before anything is allocated for it.
-void check_body_size(const fs::path& path, const PcdHeader& h, std::string_view body) {
+void check_body_size(const fs::path& path, const PcdHeader& h, const Layout& layout,
+                     std::string_view body) {
   const auto need = checked_mul(h.points, h.point_size);
   if (!need) throw_input_error(path, "POINTS " + std::to_string(h.points) + " is absurdly large");
   if (h.data == PcdData::Ascii) {
@@ -362,6 +390,7 @@ void check_body_size(const fs::path& path, const PcdHeader& h, std::string_view 
   if (*need / 88 > compressed + 1)
     throw_input_error(path, "binary_compressed body of " + std::to_string(compressed) +
                                 " bytes cannot hold " + std::to_string(h.points) + " points");
+  check_decoded_budget(path, h, layout, *need, compressed);
 }
 
 void read_binary(const PcdHeader& h, std::string_view body, CloudStore& store) {
@@ -526,7 +555,7 @@ PointCloud read_pcd(const fs::path& path) {
   const PcdHeader header = parse_header(path, data);
   const Layout layout = make_layout(path, header);
   const std::string_view body = std::string_view(data).substr(header.body_offset);
-  check_body_size(path, header, body);
+  check_body_size(path, header, layout, body);
   PointCloud cloud;
   CloudStore store(cloud, layout, header.points);
   switch (header.data) {

@@ -148,6 +148,68 @@ TEST(Pcd, CompressesRealData) {
   EXPECT_LT(fs::file_size(dir / "f.pcd"), fs::file_size(o3d_data() / "fragment.pcd") * 9 / 10);
 }
 
+// LZF bytes that unpack to `size` zero bytes: one literal, then back references of up to 264
+// bytes, 3 bytes each (the most LZF can expand).
+std::string zeros_lzf(std::size_t size) {
+  std::string out("\x00\x00", 2);
+  std::size_t done = 1;
+  while (done < size) {
+    const std::size_t n = std::min<std::size_t>(264, size - done);
+    if (n == 1) {  // too short for a reference: one more literal
+      out += std::string("\x00\x00", 2);
+    } else if (n < 9) {
+      out += static_cast<char>((n - 2) << 5);
+      out += '\x00';
+    } else {
+      out += '\xE0';
+      out += static_cast<char>(n - 9);
+      out += '\x00';
+    }
+    done += n;
+  }
+  return out;
+}
+
+// Issue 14: a 1 MB binary_compressed PCD of 103 one-byte fields unpacked to 88 MB and its
+// scalar fields took 352 MB more as floats. What decoding allocates is now bounded by what the
+// file holds (64 MiB + 32 x the compressed bytes), checked before anything is allocated; a
+// small cloud of the same kind still reads.
+TEST(Pcd, CompressedBodyThatWouldExpandBeyondTheBudgetIsRefused) {
+  const fs::path dir = scratch_dir();
+  auto write_cloud = [&](const fs::path& path, std::size_t points) {
+    std::string fields = "x y z", sizes = "1 1 1", types = "U U U", counts = "1 1 1";
+    for (int f = 0; f < 100; ++f) {
+      fields += " s" + std::to_string(f);
+      sizes += " 1";
+      types += " U";
+      counts += " 1";
+    }
+    const std::string body = zeros_lzf(points * 103);
+    std::string file = "VERSION 0.7\nFIELDS " + fields + "\nSIZE " + sizes + "\nTYPE " + types +
+                       "\nCOUNT " + counts + "\nWIDTH " + std::to_string(points) +
+                       "\nHEIGHT 1\nPOINTS " + std::to_string(points) +
+                       "\nDATA binary_compressed\n";
+    put<std::uint32_t>(file, static_cast<std::uint32_t>(body.size()));
+    put<std::uint32_t>(file, static_cast<std::uint32_t>(points * 103));
+    std::ofstream(path, std::ios::binary) << file << body;
+  };
+  write_cloud(dir / "small.pcd", 1000);
+  const PointCloud small = read_pcd(dir / "small.pcd");
+  EXPECT_EQ(small.size(), 1000u);
+  EXPECT_EQ(small.scalars.size(), 100u);
+
+  const std::size_t points = 850'000;  // 87.6 MB unpacked, 350 MB of floats
+  write_cloud(dir / "bomb.pcd", points);
+  EXPECT_LT(fs::file_size(dir / "bomb.pcd"), 1'100'000u);
+  try {
+    read_pcd(dir / "bomb.pcd");
+    ADD_FAILURE() << "a 1 MB file decoded to a cloud of 440 MB";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("bomb.pcd"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("decoding budget"), std::string::npos) << e.what();
+  }
+}
+
 TEST(Pcd, LzfRoundTripsAndRejectsCorruption) {
   std::mt19937 rng(5);
   std::vector<std::vector<std::uint8_t>> inputs = {{}, {42}, std::vector<std::uint8_t>(100000, 0)};

@@ -129,7 +129,10 @@ TEST(PhysicsCli, SimulationIsLoggedInACase) {
     forensics::CaseFolder c = forensics::CaseFolder::create(root, false);
     write_ply(c.path("mesh/mesh.ply"), sim::test::bedroom_mesh());
     std::ofstream(root / "case.json") << R"({"name": "test case"})";
-    c.update_manifest();
+    forensics::LogStep step;
+    step.step = "test fixture";
+    step.outputs = {"mesh/mesh.ply", "case.json"};
+    c.append_log_step(step);
   }
   const CommandResult r = run_cli("simulate " + quoted(root) + " " + quoted(example("bedroom-person.json")));
   ASSERT_EQ(r.exit_code, 0) << r.output;

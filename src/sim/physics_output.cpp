@@ -13,6 +13,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <optional>
 #include <system_error>
 #include <unistd.h>
 
@@ -124,6 +125,18 @@ SimulateSummary simulate_case(const fs::path& case_dir, const fs::path& scenario
   if (fs::exists(summary.folder) && !options.force)
     throw_input_error(summary.folder, "a simulation of this name exists; pass --force to replace it");
 
+  // A Locard case is held and verified before the simulation runs: a simulation is not
+  // added to a case that does not verify (CaseNotIntact). A plain folder holding a mesh is
+  // written without a log.
+  std::optional<forensics::CaseFolder> folder;
+  if (fs::is_regular_file(case_dir / "manifest.json"))
+    folder.emplace(forensics::CaseFolder::open(case_dir, forensics::CaseAccess::Change));
+  const fs::path rel = fs::path("simulations") / s.name;
+  const std::vector<fs::path> outputs = {rel / "scenario.json", rel / "events.json",
+                                         rel / "animation.glb"};
+  std::optional<forensics::CaseChange> change;
+  if (folder) change.emplace(*folder, outputs);
+
   // Everything is checked and run before the case is touched.
   const auto start = std::chrono::steady_clock::now();
   summary.result = simulate(s, mesh);
@@ -151,8 +164,7 @@ SimulateSummary simulate_case(const fs::path& case_dir, const fs::path& scenario
     throw;
   }
 
-  if (fs::is_regular_file(case_dir / "case.json") && fs::is_regular_file(case_dir / "manifest.json")) {
-    forensics::CaseFolder folder = forensics::CaseFolder::open(case_dir);
+  if (folder) {
     forensics::LogStep step;
     step.step = "simulate";
     const json parameters = {{"scenario", s.name},
@@ -165,9 +177,8 @@ SimulateSummary simulate_case(const fs::path& case_dir, const fs::path& scenario
     step.parameters_json = parameters.dump();
     step.duration_s = summary.wall_seconds;
     step.inputs = {fs::absolute(scenario_path), s.mesh};
-    const fs::path rel = fs::path("simulations") / s.name;
-    step.outputs = {rel / "scenario.json", rel / "events.json", rel / "animation.glb"};
-    folder.append_log_step(step);
+    step.outputs = outputs;
+    change->commit(step);
     summary.logged = true;
   }
   return summary;

@@ -169,9 +169,12 @@ struct CaseApi::Impl {
   std::optional<forensics::CaseModel> model_cache;
 
   // Throws InputError (-> 400) naming what is missing when the folder is not a case.
-  forensics::CaseFolder folder() const { return forensics::CaseFolder::open(root); }
+  // Change verifies the case first (CaseNotIntact -> 409 when it does not verify).
+  forensics::CaseFolder folder(forensics::CaseAccess access) const {
+    return forensics::CaseFolder::open(root, access);
+  }
   const forensics::CaseModel& model() {
-    if (!model_cache) model_cache.emplace(forensics::CaseModel::load(folder()));
+    if (!model_cache) model_cache.emplace(forensics::CaseModel::load(folder(forensics::CaseAccess::Read)));
     return *model_cache;
   }
 };
@@ -218,6 +221,9 @@ ApiResponse CaseApi::handle(std::string_view method, std::string_view path, std:
     if (post && path == "/api/markers") return add_marker(body);
     if (post && path == "/api/trajectory") return trajectory(body);
     return error_response(404, fmt::format("no such API call: {} {}", method, path));
+  } catch (const forensics::CaseNotIntact& e) {
+    // The case does not verify: nothing is added to it (the finding is the answer).
+    return error_response(409, e.what());
   } catch (const InputError& e) {
     return error_response(400, e.what());
   }
@@ -313,7 +319,8 @@ ApiResponse CaseApi::measure(std::string_view body) {
            {"coverage_factor", m.coverage_factor}};
   if (!save) return json_response(out);
   // Saved like `locard measure`: appended to measurements/measurements.json, one log step.
-  forensics::CaseFolder folder = impl_->folder();
+  forensics::CaseFolder folder = impl_->folder(forensics::CaseAccess::Change);
+  forensics::CaseChange change(folder, {"measurements/measurements.json"});
   const std::string name =
       given_name.empty() ? fmt::format("viewer {}", utc_now_iso8601()) : given_name;
   forensics::LogStep step;
@@ -328,7 +335,7 @@ ApiResponse CaseApi::measure(std::string_view body) {
   step.duration_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   out["name"] = name;
-  out["log_seq"] = folder.append_log_step(step);
+  out["log_seq"] = change.commit(step);
   return json_response(out, 201);
 }
 
@@ -360,10 +367,11 @@ ApiResponse CaseApi::add_marker(std::string_view body) {
     marker.expanded_uncertainty_m = expanded_point_uncertainty(p.covariance, 2.0);
   }
 
-  forensics::CaseFolder folder = impl_->folder();
+  forensics::CaseFolder folder = impl_->folder(forensics::CaseAccess::Change);
   const fs::path json_path = folder.path("evidence/markers.json");
   forensics::MarkerSet set = forensics::read_markers(json_path);
   const forensics::EvidenceMarker added = set.add(marker);
+  forensics::CaseChange change(folder, {"evidence/markers.json", "evidence/markers.csv"});
   forensics::write_markers(json_path, set);
 
   forensics::LogStep step;
@@ -378,7 +386,7 @@ ApiResponse CaseApi::add_marker(std::string_view body) {
   step.outputs = {"evidence/markers.json", "evidence/markers.csv"};
   step.duration_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  const std::size_t seq = folder.append_log_step(step);
+  const std::size_t seq = change.commit(step);
   json out = to_json(added);
   out["local"] = to_json(set.frame.to_local(added.world));
   out["log_seq"] = seq;
@@ -402,7 +410,12 @@ ApiResponse CaseApi::trajectory(std::string_view body) {
       forensics::analyse_trajectory(&impl_->model(), input);
   json out = to_json(analysis);
   if (save) {
-    forensics::CaseFolder folder = impl_->folder();
+    forensics::CaseFolder folder = impl_->folder(forensics::CaseAccess::Change);
+    forensics::CaseChange change(folder, {relative});
+    // Read again under the lock: another writer may have added one since.
+    analyses = is_regular(impl_->root / relative)
+                   ? forensics::read_trajectory_analyses(impl_->root / relative)
+                   : std::vector<forensics::TrajectoryAnalysis>{};
     analyses.push_back(analysis);
     {
       AtomicFile file(folder.path(relative), false);
@@ -422,13 +435,13 @@ ApiResponse CaseApi::trajectory(std::string_view body) {
     step.outputs = {relative};
     step.duration_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    out["log_seq"] = folder.append_log_step(step);
+    out["log_seq"] = change.commit(step);
   }
   return json_response(out, save ? 201 : 200);
 }
 
 void CaseApi::refresh_report() {
-  forensics::CaseFolder folder = impl_->folder();
+  forensics::CaseFolder folder = impl_->folder(forensics::CaseAccess::Change);
   forensics::refresh_case_report(folder);
 }
 

@@ -109,7 +109,11 @@ struct Fixture {
     write_text(case_dir / "mesh/mesh.json", R"({"triangles": 2, "inferred_triangles": 1})");
     write_text(case_dir / "simulations/drop/events.json", R"({"events": []})");
     write_text(case_dir / "simulations/drop/animation.glb", "glTF");
-    folder.update_manifest();
+    forensics::LogStep step;
+    step.step = "test fixture";
+    step.outputs = {"case.json", "mesh/mesh.json", "simulations/drop/events.json",
+                    "simulations/drop/animation.glb"};
+    folder.append_log_step(step);
     write_text(web_root / "index.html", "<!doctype html><title>viewer</title>");
     write_text(web_root / "app.js", "console.log(1);");
     write_text(dir / "secret.txt", "outside the case");
@@ -269,6 +273,33 @@ TEST(ViewerServer, SavesMarkersThroughTheIntegrityLog) {
   const forensics::VerifyReport report = forensics::verify_case(f.case_dir, false);
   EXPECT_TRUE(report.ok()) << (report.problems.empty() ? "" : report.problems[0].path + ": " +
                                                                   report.problems[0].detail);
+}
+
+// Issue 14: the viewer's saves go through the same transaction as the CLI's - a case that does
+// not verify (a recorded file deleted, one planted) takes no marker: 409 with the finding,
+// nothing written. Put back, the same request is saved (201) and the case verifies.
+TEST(CaseApi, RefusesToAddToACaseThatDoesNotVerify) {
+  Fixture f;
+  CaseApi api(f.case_dir);
+  const std::string mesh_json = R"({"triangles": 2, "inferred_triangles": 1})";
+  fs::remove(f.case_dir / "mesh/mesh.json");
+  write_text(f.case_dir / "planted.txt", "x");
+  std::ifstream log_in(f.case_dir / "log.jsonl");
+  const std::string log((std::istreambuf_iterator<char>(log_in)), {});
+  const std::string body = R"({"position": [1, 2, 3], "label": "Casing", "snap": false})";
+  ApiResponse r = api.handle("POST", "/api/markers", body);
+  EXPECT_EQ(r.status, 409) << r.body;
+  EXPECT_NE(r.body.find("mesh/mesh.json"), std::string::npos) << r.body;
+  EXPECT_NE(r.body.find("planted.txt"), std::string::npos) << r.body;
+  EXPECT_FALSE(fs::exists(f.case_dir / "evidence/markers.json"));
+  std::ifstream after(f.case_dir / "log.jsonl");
+  EXPECT_EQ(std::string((std::istreambuf_iterator<char>(after)), {}), log);
+  write_text(f.case_dir / "mesh/mesh.json", mesh_json);
+  fs::remove(f.case_dir / "planted.txt");
+  r = api.handle("POST", "/api/markers", body);
+  EXPECT_EQ(r.status, 201) << r.body;
+  const forensics::VerifyReport report = forensics::verify_case(f.case_dir, false);
+  EXPECT_TRUE(report.ok()) << (report.problems.empty() ? "" : report.problems[0].path);
 }
 
 }  // namespace

@@ -17,13 +17,18 @@ class AtomicFile {
 
   std::ofstream& stream() { return stream_; }
   const std::filesystem::path& temp_path() const { return temp_; }
-  // Flushes, checks the stream and renames over the target. Throws locard::Error on failure.
+  // Flushes, checks and closes the temporary file without renaming it: a writer of several
+  // files finishes them all (where a full disk shows) before any replaces its target.
+  // Throws locard::Error on failure.
+  void finish();
+  // finish() if not done, then renames over the target. Throws locard::Error on failure.
   void commit();
 
  private:
   std::filesystem::path target_;
   std::filesystem::path temp_;
   std::ofstream stream_;
+  bool finished_ = false;
   bool committed_ = false;
 };
 
