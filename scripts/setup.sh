@@ -11,6 +11,8 @@ packages=(
   nlohmann-json3-dev libpng-dev libjpeg-dev libdeflate-dev libembree-dev libceres-dev libassimp-dev libcgal-dev
   # case integrity (SHA-256), local viewer server, physics scenarios
   libssl-dev libcpp-httplib-dev libbullet-dev
+  # tests of signed and time-stamped cases play the key holder and the authority
+  openssl
   # browser tests of the report and viewer (headless Chromium driven by Playwright)
   chromium fonts-dejavu-core
   # tests and benchmarks
