@@ -17,6 +17,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdio>
+#include <string>
 #include <tuple>
 
 namespace locard {
@@ -94,12 +95,19 @@ TEST_P(GeneratedRoom, NoWrongViewIsVerified) {
                                     o.min_verified_share * static_cast<double>(r.usable_frames()));
 }
 
+std::string room_name(const ::testing::TestParamInfo<RoomKind>& room) {
+  return "seed" + std::to_string(std::get<0>(room.param)) + "_" +
+         std::string(sim::to_string(std::get<1>(room.param))) + "_" +
+         std::string(sim::to_string(std::get<2>(room.param)));
+}
+
 INSTANTIATE_TEST_SUITE_P(
     EachKind, GeneratedRoom,
     ::testing::Values(RoomKind{1001, sim::ScannerModel::KinectV1, sim::SurfaceKind::Plain},
                       RoomKind{1002, sim::ScannerModel::KinectV1, sim::SurfaceKind::Textured},
                       RoomKind{1003, sim::ScannerModel::KinectV2, sim::SurfaceKind::Plain},
-                      RoomKind{1004, sim::ScannerModel::KinectV2, sim::SurfaceKind::Textured}));
+                      RoomKind{1004, sim::ScannerModel::KinectV2, sim::SurfaceKind::Textured}),
+    room_name);
 
 }  // namespace
 }  // namespace locard

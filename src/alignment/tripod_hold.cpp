@@ -132,8 +132,56 @@ void hold_views(AlignmentState& s, const std::vector<std::size_t>& views, const 
   }
 }
 
+// The ring of each view (frames used) by capture order, from the known ring sizes; -1 beyond.
+int known_ring(const AlignmentOptions& o, std::size_t frame) {
+  std::size_t at = 0;
+  const std::size_t index = o.first_frame + frame;
+  for (std::size_t r = 0; r < o.ring_sizes.size(); ++r) {
+    at += o.ring_sizes[r];
+    if (index < at) return static_cast<int>(r);
+  }
+  return -1;
+}
+
+// A ring can enter tilted by more than the ring correction takes (a plain room lets its first
+// view tilt along the walls), and then no ring holds the majority the tripod fit asks for, so
+// nothing is held. Where the rings are known (capture order), each ring's own pan axis is
+// fitted from its views alone; one tripod has one axis, so a ring whose axis stands off the
+// largest ring's is turned as a block about the tripod's centre by the rotation between the
+// two axes. Its turn about the axis is left to the ring correction.
+constexpr double kMaxRingLevelDeg = 20.0;
+
+void level_rings(AlignmentState& s, const std::vector<std::size_t>& views,
+                 const Eigen::Vector3d& centre) {
+  if (s.options.ring_sizes.size() < 2) return;
+  std::vector<std::vector<std::size_t>> rings(s.options.ring_sizes.size());
+  for (std::size_t f : views)
+    if (const int r = known_ring(s.options, f); r >= 0) rings[static_cast<std::size_t>(r)].push_back(f);
+  std::vector<std::optional<Eigen::Vector3d>> axis(rings.size());
+  std::size_t reference = rings.size();
+  for (std::size_t r = 0; r < rings.size(); ++r) {
+    const std::optional<TripodFit> fit = fit_tripod(rotations(s, rings[r]));
+    if (!fit) continue;
+    axis[r] = fit->axis;
+    if (reference == rings.size() || rings[r].size() > rings[reference].size()) reference = r;
+  }
+  if (reference == rings.size()) return;
+  for (std::size_t r = 0; r < rings.size(); ++r) {
+    if (r == reference || !axis[r]) continue;
+    const Eigen::Matrix3d Q = Eigen::Quaterniond::FromTwoVectors(*axis[r], *axis[reference]).toRotationMatrix();
+    const double angle = Eigen::AngleAxisd(Q).angle() * 180.0 / M_PI;
+    if (angle < kOnRingDeg || angle > kMaxRingLevelDeg) continue;
+    for (std::size_t f : rings[r]) {
+      Isometry3d& T = *s.result.frames[f].T_world_camera_icp;
+      T.linear() = Q * T.linear();
+      T.translation() = centre + Q * (T.translation() - centre);
+    }
+  }
+}
+
 // Rings first (a ring's correction moves its views' axes), then the views, on a new fit.
 void hold_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
+  if (views.size() >= 2) level_rings(s, views, median_centre(tracked_poses(s, views)));
   const std::optional<TripodFit> fit = fit_tripod(rotations(s, views));
   if (!fit) return;
   std::vector<std::size_t> good;
