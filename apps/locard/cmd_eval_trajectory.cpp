@@ -120,7 +120,9 @@ void register_eval_trajectory(CLI::App& app, GlobalOptions& /*global*/) {
   cmd->add_option("--offset", options->offset, "Added to the estimate's timestamps (s)")
       ->capture_default_str();
   cmd->add_flag("--by-frame-index", options->by_frame_index,
-                "Pair poses by frame index instead of timestamp");
+                "Pair poses by frame index instead of timestamp (a TUM file has no frame "
+                "index: its poses are numbered in line order, so pair a TUM estimate by "
+                "timestamp unless it holds every frame)");
   cmd->add_option("--delta", options->delta, "RPE step")->capture_default_str();
   cmd->add_option("--delta-unit", options->delta_unit, "RPE step unit: f (frames) or s (seconds)")
       ->capture_default_str();
