@@ -15,6 +15,8 @@ packages=(
   openssl
   # browser tests of the report and viewer (headless Chromium driven by Playwright)
   chromium fonts-dejavu-core
+  # fuzzing (make fuzz, and the short pass of make test): clang and its libFuzzer runtime
+  clang libclang-rt-14-dev
   # tests and benchmarks
   libgtest-dev libgmock-dev libbenchmark-dev
   # reference peer for benchmarks and cross-checks (never a runtime dependency)

@@ -34,6 +34,106 @@ Isometry3d pose_from_json(const json& rows, const std::string& where) {
   return T;
 }
 
+// A finite number > 0 at j[key], or InputError naming the file and the key.
+double positive_number(const json& j, const char* key, const fs::path& path) {
+  const json& v = j.at(key);
+  if (!v.is_number() || !std::isfinite(v.get<double>()) || v.get<double>() <= 0.0)
+    throw_input_error(path, fmt::format("\"{}\" must be a positive number, found {}", key,
+                                        v.dump()));
+  return v.get<double>();
+}
+
+// alignment/pose_covariance.json: {"views": [{"frame_index", "timestamp", "T_world_camera"
+// (4x4 rows), "covariance" (6x6 rows), "depth_path"?}, ...]}. Any other shape, a missing key
+// or a wrong type is an InputError naming the file and the view (never a raw JSON error).
+std::vector<ViewRecord> read_view_records(const fs::path& path) {
+  const json views_json = io_detail::read_json_file(path);
+  std::vector<ViewRecord> views;
+  std::size_t i = 0;
+  try {
+    if (!views_json.is_object() || !views_json.contains("views") ||
+        !views_json.at("views").is_array())
+      throw_input_error(path, "expected an object with a \"views\" array");
+    for (const json& v : views_json.at("views")) {
+      const std::string where = fmt::format("{}: views[{}]", path.string(), i);
+      ViewRecord r;
+      r.frame_index = v.at("frame_index").get<std::int64_t>();
+      r.timestamp = v.at("timestamp").get<double>();
+      r.T_world_camera = pose_from_json(v.at("T_world_camera"), where + ": T_world_camera");
+      if (!r.T_world_camera.matrix().allFinite())
+        throw InputError(where + ": T_world_camera must be finite");
+      const json& c = v.at("covariance");
+      if (!c.is_array() || c.size() != 6) throw InputError(where + ": covariance must be 6x6");
+      for (int a = 0; a < 6; ++a) {
+        const json& row = c.at(static_cast<std::size_t>(a));
+        if (!row.is_array() || row.size() != 6)
+          throw InputError(where + ": covariance must be 6x6");
+        for (int b = 0; b < 6; ++b) r.covariance(a, b) = row.at(static_cast<std::size_t>(b)).get<double>();
+      }
+      r.depth_path = v.value("depth_path", "");
+      views.push_back(std::move(r));
+      ++i;
+    }
+  } catch (const json::exception& e) {
+    throw_input_error(path, fmt::format("views[{}]: {}", i, e.what()));
+  }
+  return views;
+}
+
+struct CaseSensor {
+  CameraIntrinsics intrinsics;
+  double depth_scale = 1000.0;
+  SensorNoiseModel noise;
+};
+
+// case.json's "sensor": intrinsics, depth scale and the noise model (named, or from the kind
+// of depth sensor, or for a legacy case from the intrinsics' preset name).
+CaseSensor read_case_sensor(const fs::path& path) {
+  const json case_json = io_detail::read_json_file(path);
+  CaseSensor out;
+  try {
+    if (!case_json.is_object() || !case_json.contains("sensor") ||
+        !case_json.at("sensor").is_object())
+      throw_input_error(path, "expected an object with a \"sensor\" object");
+    const json& sensor = case_json.at("sensor");
+    CameraIntrinsics& K = out.intrinsics;
+    for (const char* key : {"width", "height"}) {
+      const json& v = sensor.at(key);
+      if (!v.is_number_integer() || v.get<std::int64_t>() < 1 || v.get<std::int64_t>() > 100000)
+        throw_input_error(path, fmt::format("sensor: \"{}\" must be a whole number of pixels "
+                                            "(1-100000), found {}", key, v.dump()));
+    }
+    K.width = sensor.at("width").get<int>();
+    K.height = sensor.at("height").get<int>();
+    K.fx = positive_number(sensor, "fx", path);
+    K.fy = positive_number(sensor, "fy", path);
+    K.cx = sensor.at("cx").get<double>();
+    K.cy = sensor.at("cy").get<double>();
+    K.name = sensor.value("intrinsics_name", "");
+    SensorNoiseModel& noise = out.noise;
+    if (sensor.contains("noise_model")) {
+      noise.name = sensor.at("noise_model").get<std::string>();
+    } else if (sensor.contains("depth_sensor")) {
+      const std::string kind = sensor.at("depth_sensor").get<std::string>();
+      DepthSensorKind parsed = DepthSensorKind::Unknown;
+      for (DepthSensorKind k : {DepthSensorKind::StructuredLight, DepthSensorKind::TimeOfFlight,
+                                DepthSensorKind::Synthetic})
+        if (kind == to_string(k)) parsed = k;
+      noise = SensorNoiseModel::for_sensor(parsed);
+    } else {
+      // Legacy case.json (before sequence traits): only the intrinsics' preset name.
+      noise.name = K.name == "kinect_v2" ? "kinect_v2" : "structured_light";
+    }
+    noise.depth_step_m = sensor.contains("depth_step_m")
+                             ? positive_number(sensor, "depth_step_m", path) : 0.001;
+    out.depth_scale = sensor.contains("depth_scale")
+                          ? positive_number(sensor, "depth_scale", path) : 1000.0;
+  } catch (const json::exception& e) {
+    throw_input_error(path, fmt::format("sensor: {}", e.what()));
+  }
+  return out;
+}
+
 }  // namespace
 
 double SensorNoiseModel::axial_sigma_m(double z_m, double incidence_rad) const {
@@ -115,50 +215,19 @@ CaseModel& CaseModel::operator=(CaseModel&&) noexcept = default;
 CaseModel CaseModel::load(const CaseFolder& folder) {
   const fs::path root = folder.root();
   TriangleMesh mesh = folder.load_mesh();
-  const json case_json = io_detail::read_json_file(root / "case.json");
-  const json views_json = io_detail::read_json_file(root / "alignment" / "pose_covariance.json");
-  std::vector<ViewRecord> views;
+  const fs::path case_path = root / "case.json";
   const fs::path cov_path = root / "alignment" / "pose_covariance.json";
-  for (const json& v : views_json.at("views")) {
-    ViewRecord r;
-    r.frame_index = v.at("frame_index").get<std::int64_t>();
-    r.timestamp = v.at("timestamp").get<double>();
-    r.T_world_camera = pose_from_json(v.at("T_world_camera"), cov_path.string());
-    const json& c = v.at("covariance");
-    for (int i = 0; i < 6; ++i)
-      for (int j = 0; j < 6; ++j) r.covariance(i, j) = c.at(static_cast<std::size_t>(i)).at(static_cast<std::size_t>(j)).get<double>();
-    r.depth_path = v.value("depth_path", "");
-    views.push_back(std::move(r));
-  }
-  const json& sensor = case_json.at("sensor");
-  CameraIntrinsics K;
-  K.width = sensor.at("width").get<int>();
-  K.height = sensor.at("height").get<int>();
-  K.fx = sensor.at("fx").get<double>();
-  K.fy = sensor.at("fy").get<double>();
-  K.cx = sensor.at("cx").get<double>();
-  K.cy = sensor.at("cy").get<double>();
-  K.name = sensor.value("intrinsics_name", "");
-  SensorNoiseModel noise;
-  if (sensor.contains("noise_model")) {
-    noise.name = sensor.at("noise_model").get<std::string>();
-  } else if (sensor.contains("depth_sensor")) {
-    const std::string kind = sensor.at("depth_sensor").get<std::string>();
-    DepthSensorKind parsed = DepthSensorKind::Unknown;
-    for (DepthSensorKind k : {DepthSensorKind::StructuredLight, DepthSensorKind::TimeOfFlight,
-                              DepthSensorKind::Synthetic})
-      if (kind == to_string(k)) parsed = k;
-    noise = SensorNoiseModel::for_sensor(parsed);
-  } else {
-    // Legacy case.json (before sequence traits): only the intrinsics' preset name.
-    noise.name = K.name == "kinect_v2" ? "kinect_v2" : "structured_light";
-  }
-  noise.depth_step_m = sensor.value("depth_step_m", 0.001);
+  std::vector<ViewRecord> views = read_view_records(cov_path);
+  const CaseSensor sensor = read_case_sensor(case_path);
   double voxel = 0.01;
-  if (fs::exists(root / "mesh" / "mesh.json"))
-    voxel = io_detail::read_json_file(root / "mesh" / "mesh.json").value("voxel_size", 0.01);
-  return CaseModel(std::move(mesh), std::move(views), K, sensor.value("depth_scale", 1000.0),
-                   noise, voxel);
+  const fs::path mesh_json = root / "mesh" / "mesh.json";
+  if (fs::exists(mesh_json)) {
+    const json j = io_detail::read_json_file(mesh_json);
+    if (!j.is_object()) throw_input_error(mesh_json, "expected a JSON object");
+    if (j.contains("voxel_size")) voxel = positive_number(j, "voxel_size", mesh_json);
+  }
+  return CaseModel(std::move(mesh), std::move(views), sensor.intrinsics, sensor.depth_scale,
+                   sensor.noise, voxel);
 }
 
 const TriangleMesh& CaseModel::mesh() const { return impl_->mesh; }
