@@ -13,7 +13,6 @@
 
 #include "test_support.hpp"
 
-#include <Eigen/SVD>
 #include <gtest/gtest.h>
 
 #include <cstdio>
@@ -44,24 +43,12 @@ Judgement judge(const RgbdSequence& seq, const AlignmentResult& r) {
   }
   j.verified = verified.size();
   if (verified.size() < 2) return j;
-  const auto truth = [&](std::size_t i) -> const Isometry3d& {
-    return seq.ground_truth[r.frames[i].sequence_index].T_world_camera;
-  };
-  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
-  for (std::size_t i : verified) M += truth(i).linear() * r.frames[i].T_world_camera_final->linear().transpose();
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant();
-  const Eigen::Matrix3d R = svd.matrixU() * D * svd.matrixV().transpose();
-  Eigen::Vector3d t = Eigen::Vector3d::Zero();
-  for (std::size_t i : verified) t += truth(i).translation() - R * r.frames[i].T_world_camera_final->translation();
-  t /= static_cast<double>(verified.size());
+  std::vector<Isometry3d> estimate, truth;
   for (std::size_t i : verified) {
-    Isometry3d fitted = *r.frames[i].T_world_camera_final;
-    fitted.linear() = R * fitted.linear();
-    fitted.translation() = R * fitted.translation() + t;
-    const double deg = rotation_difference_deg(fitted, truth(i));
-    const double m = translation_difference_m(fitted, truth(i));
+    estimate.push_back(*r.frames[i].T_world_camera_final);
+    truth.push_back(seq.ground_truth[r.frames[i].sequence_index].T_world_camera);
+  }
+  for (const auto& [deg, m] : test::errors_after_fit(estimate, truth)) {
     j.worst_deg = std::max(j.worst_deg, deg);
     j.worst_m = std::max(j.worst_m, m);
     j.silent += deg > 2.0 || m > 0.05;

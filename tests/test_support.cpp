@@ -1,5 +1,8 @@
 #include "test_support.hpp"
 
+#include <locard/core/pose.hpp>
+
+#include <Eigen/SVD>
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -50,6 +53,28 @@ std::string list_folder(const std::filesystem::path& folder) {
   std::string out;
   for (const auto& n : names) out += n + "\n";
   return out;
+}
+
+std::vector<std::pair<double, double>> errors_after_fit(const std::vector<Eigen::Isometry3d>& estimate,
+                                                        const std::vector<Eigen::Isometry3d>& truth) {
+  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
+  for (std::size_t i = 0; i < estimate.size(); ++i) M += truth[i].linear() * estimate[i].linear().transpose();
+  Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
+  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
+  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant();
+  const Eigen::Matrix3d R = svd.matrixU() * D * svd.matrixV().transpose();
+  Eigen::Vector3d t = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < estimate.size(); ++i) t += truth[i].translation() - R * estimate[i].translation();
+  if (!estimate.empty()) t /= static_cast<double>(estimate.size());
+  std::vector<std::pair<double, double>> errors;
+  for (std::size_t i = 0; i < estimate.size(); ++i) {
+    Eigen::Isometry3d fitted = estimate[i];
+    fitted.linear() = R * fitted.linear();
+    fitted.translation() = R * fitted.translation() + t;
+    errors.emplace_back(rotation_difference_deg(fitted, truth[i]),
+                        translation_difference_m(fitted, truth[i]));
+  }
+  return errors;
 }
 
 }  // namespace locard::test

@@ -1,8 +1,12 @@
 #pragma once
 // Helpers shared by the tests: where the shared data lives, scratch folders, running the CLI.
 
+#include <Eigen/Geometry>
+
 #include <filesystem>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace locard::test {
 
@@ -20,5 +24,11 @@ CommandResult run_cli(const std::string& arguments);
 
 // Names of the files in `folder` (sorted), to check no partial output was left behind.
 std::string list_folder(const std::filesystem::path& folder);
+
+// The rotation (degrees) and centre (metres) error of each estimated camera pose after the best
+// rigid fit of them all to the truth (rotation by chordal mean, then translation), as
+// bench/room_robustness.py judges the verified views of a room.
+std::vector<std::pair<double, double>> errors_after_fit(const std::vector<Eigen::Isometry3d>& estimate,
+                                                        const std::vector<Eigen::Isometry3d>& truth);
 
 }  // namespace locard::test

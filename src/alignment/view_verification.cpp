@@ -139,8 +139,8 @@ double free_space_share(const AlignmentState& s, std::size_t i, const OthersMode
   return seen ? static_cast<double>(through) / static_cast<double>(seen) : 0.0;
 }
 
-// Tripod turn, per piece: each view's angle off its ring and its centre's distance from the
-// nodal model (tripod_fit.hpp); NaN where the views of a piece make no tripod fit.
+// Tripod turn, over the views of one piece: each view's angle off its ring and its centre's distance
+// from the nodal model (tripod_fit.hpp); NaN where the views make no tripod fit.
 struct TripodConsistency {
   std::vector<double> off_axis_deg, residual_m;
 };
@@ -150,27 +150,20 @@ TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<
   out.off_axis_deg.assign(s.n, std::numeric_limits<double>::quiet_NaN());
   out.residual_m = out.off_axis_deg;
   if (s.options.mode != AlignmentMode::Cumulative) return out;
-  std::size_t pieces = 0;
-  for (std::size_t i : views) pieces = std::max(pieces, s.result.frames[i].piece + 1);
-  for (std::size_t piece = 0; piece < pieces; ++piece) {
-    std::vector<std::size_t> members;
-    std::vector<Eigen::Matrix3d> R;
-    std::vector<Isometry3d> T;
-    for (std::size_t i : views)
-      if (s.result.frames[i].piece == piece) {
-        members.push_back(i);
-        T.push_back(*s.result.frames[i].T_world_camera_final);
-        R.push_back(T.back().linear());
-      }
-    TripodFitOptions fit_options;
-    if (!s.options.ring_sizes.empty()) fit_options.min_inlier_share = 0.0;  // a known turn
-    const std::optional<TripodFit> fit = fit_tripod(R, fit_options);
-    if (!fit) continue;
-    const NodalFit nodal = fit_nodal(T);
-    for (std::size_t k = 0; k < members.size(); ++k) {
-      out.off_axis_deg[members[k]] = fit->off_axis_deg[k];
-      out.residual_m[members[k]] = nodal.residual_m[k];
-    }
+  std::vector<Eigen::Matrix3d> R;
+  std::vector<Isometry3d> T;
+  for (std::size_t i : views) {
+    T.push_back(*s.result.frames[i].T_world_camera_final);
+    R.push_back(T.back().linear());
+  }
+  TripodFitOptions fit_options;
+  if (!s.options.ring_sizes.empty()) fit_options.min_inlier_share = 0.0;  // a known turn
+  const std::optional<TripodFit> fit = fit_tripod(R, fit_options);
+  if (!fit) return out;
+  const NodalFit nodal = fit_nodal(T);
+  for (std::size_t k = 0; k < views.size(); ++k) {
+    out.off_axis_deg[views[k]] = fit->off_axis_deg[k];
+    out.residual_m[views[k]] = nodal.residual_m[k];
   }
   return out;
 }

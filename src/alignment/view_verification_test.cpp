@@ -14,7 +14,6 @@
 #include "test_support.hpp"
 
 #include <Eigen/Geometry>
-#include <Eigen/SVD>
 #include <gtest/gtest.h>
 
 namespace locard::alignment_detail {
@@ -63,29 +62,17 @@ struct SolvedState {
 // The worst rotation error (degrees) and centre error (metres) of the verified views after
 // the best rigid fit of them to the truth.
 std::pair<double, double> worst_verified_error(const SolvedState& s) {
-  std::vector<std::size_t> verified;
+  std::vector<Isometry3d> estimate, truth;
   for (std::size_t i = 0; i < s.state.n; ++i)
-    if (s.state.result.frames[i].trusted()) verified.push_back(i);
-  EXPECT_GE(verified.size(), 2u);
-  const auto& truth = s.state.sequence.ground_truth;
-  Eigen::Matrix3d M = Eigen::Matrix3d::Zero();
-  for (std::size_t i : verified)
-    M += truth[i].T_world_camera.linear() * s.state.result.frames[i].T_world_camera_final->linear().transpose();
-  Eigen::JacobiSVD<Eigen::Matrix3d> svd(M, Eigen::ComputeFullU | Eigen::ComputeFullV);
-  Eigen::Matrix3d D = Eigen::Matrix3d::Identity();
-  D(2, 2) = (svd.matrixU() * svd.matrixV().transpose()).determinant();
-  const Eigen::Matrix3d R = svd.matrixU() * D * svd.matrixV().transpose();
-  Eigen::Vector3d t = Eigen::Vector3d::Zero();
-  for (std::size_t i : verified)
-    t += truth[i].T_world_camera.translation() - R * s.state.result.frames[i].T_world_camera_final->translation();
-  t /= static_cast<double>(verified.size());
+    if (s.state.result.frames[i].trusted()) {
+      estimate.push_back(*s.state.result.frames[i].T_world_camera_final);
+      truth.push_back(s.state.sequence.ground_truth[i].T_world_camera);
+    }
+  EXPECT_GE(estimate.size(), 2u);
   std::pair<double, double> worst{0.0, 0.0};
-  for (std::size_t i : verified) {
-    Isometry3d fitted = *s.state.result.frames[i].T_world_camera_final;
-    fitted.linear() = R * fitted.linear();
-    fitted.translation() = R * fitted.translation() + t;
-    worst.first = std::max(worst.first, rotation_difference_deg(fitted, truth[i].T_world_camera));
-    worst.second = std::max(worst.second, translation_difference_m(fitted, truth[i].T_world_camera));
+  for (const auto& [deg, m] : test::errors_after_fit(estimate, truth)) {
+    worst.first = std::max(worst.first, deg);
+    worst.second = std::max(worst.second, m);
   }
   return worst;
 }
