@@ -5,7 +5,12 @@
 #include <Eigen/SVD>
 #include <gtest/gtest.h>
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
+
 #include <algorithm>
+#include <sstream>
 #include <array>
 #include <cstdio>
 #include <sys/wait.h>
@@ -76,5 +81,66 @@ std::vector<std::pair<double, double>> errors_after_fit(const std::vector<Eigen:
   }
   return errors;
 }
+
+// One request over a fresh connection to 127.0.0.1:port; HTTP/1.0, so the server closes the
+// connection after answering and the reply is everything read.
+Reply http_request(std::uint16_t port, const std::string& method, const std::string& target,
+                   const std::map<std::string, std::string>& headers,
+                   const std::string& body) {
+  Reply reply;
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  if (fd < 0) {
+    ADD_FAILURE() << "socket() failed";
+    return reply;
+  }
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(port);
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0) {
+    ::close(fd);
+    ADD_FAILURE() << "cannot connect to 127.0.0.1:" << port;
+    return reply;
+  }
+  std::ostringstream out;
+  out << method << " " << target << " HTTP/1.0\r\n";
+  if (!headers.count("Host")) out << "Host: 127.0.0.1\r\n";
+  for (const auto& [k, v] : headers) out << k << ": " << v << "\r\n";
+  if (method == "POST")
+    out << "Content-Type: application/json\r\nContent-Length: " << body.size() << "\r\n";
+  out << "\r\n" << body;
+  const std::string text = out.str();
+  for (std::size_t sent = 0; sent < text.size();) {
+    const ssize_t n = ::send(fd, text.data() + sent, text.size() - sent, 0);
+    if (n <= 0) break;
+    sent += static_cast<std::size_t>(n);
+  }
+  std::string raw;
+  char buffer[4096];
+  for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
+    raw.append(buffer, static_cast<std::size_t>(n));
+  ::close(fd);
+  const std::size_t end = raw.find("\r\n\r\n");
+  if (end == std::string::npos) {
+    ADD_FAILURE() << "malformed reply: " << raw;
+    return reply;
+  }
+  std::istringstream head(raw.substr(0, end));
+  std::string line, version;
+  std::getline(head, line);
+  std::istringstream(line) >> version >> reply.status;
+  while (std::getline(head, line)) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    const std::size_t colon = line.find(':');
+    if (colon == std::string::npos) continue;
+    std::string name = line.substr(0, colon);
+    for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+    const std::size_t value = line.find_first_not_of(' ', colon + 1);
+    reply.headers[name] = value == std::string::npos ? "" : line.substr(value);
+  }
+  reply.body = raw.substr(end + 4);
+  return reply;
+}
+
 
 }  // namespace locard::test

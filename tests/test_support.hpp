@@ -3,7 +3,9 @@
 
 #include <Eigen/Geometry>
 
+#include <cstdint>
 #include <filesystem>
+#include <map>
 #include <string>
 #include <utility>
 #include <vector>
@@ -30,5 +32,17 @@ std::string list_folder(const std::filesystem::path& folder);
 // bench/room_robustness.py judges the verified views of a room.
 std::vector<std::pair<double, double>> errors_after_fit(const std::vector<Eigen::Isometry3d>& estimate,
                                                         const std::vector<Eigen::Isometry3d>& truth);
+
+struct Reply {
+  int status = 0;
+  std::map<std::string, std::string> headers;  // names lower-case
+  std::string body;
+};
+
+// One request over a fresh connection to 127.0.0.1:port (HTTP/1.0: the server closes the
+// connection after answering); a malformed or missing reply is a test failure.
+Reply http_request(std::uint16_t port, const std::string& method, const std::string& target,
+                   const std::map<std::string, std::string>& headers = {},
+                   const std::string& body = "");
 
 }  // namespace locard::test

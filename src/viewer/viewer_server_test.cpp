@@ -1,4 +1,4 @@
-// The viewer's server over real sockets (a minimal HTTP/1.0 client against 127.0.0.1, apart
+// The viewer's server over real sockets (test::http_request, a minimal HTTP/1.0 client apart
 // from the server's own library): the token is
 // required on every route, path traversal is refused, the API answers and a marker saved
 // through it lands in the case's integrity log. Measurements and trajectories need a
@@ -11,11 +11,6 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
-
-#include <arpa/inet.h>
-#include <netinet/in.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
 #include <fstream>
 #include <map>
@@ -32,71 +27,7 @@ void write_text(const fs::path& path, const std::string& text) {
   std::ofstream(path, std::ios::binary) << text;
 }
 
-struct Reply {
-  int status = 0;
-  std::map<std::string, std::string> headers;  // names lower-case
-  std::string body;
-};
-
-// One request over a fresh connection to 127.0.0.1:port; HTTP/1.0, so the server closes the
-// connection after answering and the reply is everything read.
-Reply request(std::uint16_t port, const std::string& method, const std::string& target,
-              const std::map<std::string, std::string>& headers = {},
-              const std::string& body = "") {
-  Reply reply;
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  if (fd < 0) {
-    ADD_FAILURE() << "socket() failed";
-    return reply;
-  }
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_port = htons(port);
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  if (::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0) {
-    ::close(fd);
-    ADD_FAILURE() << "cannot connect to 127.0.0.1:" << port;
-    return reply;
-  }
-  std::ostringstream out;
-  out << method << " " << target << " HTTP/1.0\r\n";
-  if (!headers.count("Host")) out << "Host: 127.0.0.1\r\n";
-  for (const auto& [k, v] : headers) out << k << ": " << v << "\r\n";
-  if (method == "POST")
-    out << "Content-Type: application/json\r\nContent-Length: " << body.size() << "\r\n";
-  out << "\r\n" << body;
-  const std::string text = out.str();
-  for (std::size_t sent = 0; sent < text.size();) {
-    const ssize_t n = ::send(fd, text.data() + sent, text.size() - sent, 0);
-    if (n <= 0) break;
-    sent += static_cast<std::size_t>(n);
-  }
-  std::string raw;
-  char buffer[4096];
-  for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
-    raw.append(buffer, static_cast<std::size_t>(n));
-  ::close(fd);
-  const std::size_t end = raw.find("\r\n\r\n");
-  if (end == std::string::npos) {
-    ADD_FAILURE() << "malformed reply: " << raw;
-    return reply;
-  }
-  std::istringstream head(raw.substr(0, end));
-  std::string line, version;
-  std::getline(head, line);
-  std::istringstream(line) >> version >> reply.status;
-  while (std::getline(head, line)) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    const std::size_t colon = line.find(':');
-    if (colon == std::string::npos) continue;
-    std::string name = line.substr(0, colon);
-    for (char& c : name) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
-    const std::size_t value = line.find_first_not_of(' ', colon + 1);
-    reply.headers[name] = value == std::string::npos ? "" : line.substr(value);
-  }
-  reply.body = raw.substr(end + 4);
-  return reply;
-}
+using test::Reply;
 
 struct Fixture {
   fs::path dir = test::scratch_dir();
@@ -169,25 +100,25 @@ TEST(ViewerServer, RefusesRequestsWithoutTheToken) {
   const std::uint16_t port = server.port();
   const std::string q = "?token=" + server.token();
   for (const std::string path : {"/", "/app.js", "/api/case", "/api/markers", "/case/case.json"}) {
-    Reply r = request(port, "GET", path);
+    Reply r = test::http_request(port, "GET", path);
     EXPECT_EQ(r.status, 403) << path;
     EXPECT_EQ(r.body.find("viewer"), std::string::npos);
-    r = request(port, "GET", path + "?token=" + std::string(32, '0'));
+    r = test::http_request(port, "GET", path + "?token=" + std::string(32, '0'));
     EXPECT_EQ(r.status, 403) << path << " with a wrong token";
-    r = request(port, "GET", path, {{"X-Locard-Token", server.token().substr(0, 31)}});
+    r = test::http_request(port, "GET", path, {{"X-Locard-Token", server.token().substr(0, 31)}});
     EXPECT_EQ(r.status, 403) << path << " with a truncated token";
   }
-  const Reply post = request(port, "POST", "/api/markers", {},
+  const Reply post = test::http_request(port, "POST", "/api/markers", {},
                              R"({"position": [0, 0, 0], "label": "x", "snap": false})");
   EXPECT_EQ(post.status, 403);
   EXPECT_FALSE(fs::exists(f.case_dir / "evidence/markers.json"));
 
-  Reply ok = request(port, "GET", "/" + q);
+  Reply ok = test::http_request(port, "GET", "/" + q);
   EXPECT_EQ(ok.status, 200);
   EXPECT_NE(ok.body.find("viewer"), std::string::npos);
   EXPECT_EQ(ok.headers["cache-control"], "no-store");
   EXPECT_NE(ok.headers["content-security-policy"].find("default-src 'self'"), std::string::npos);
-  ok = request(port, "GET", "/api/case", {{"X-Locard-Token", server.token()}});
+  ok = test::http_request(port, "GET", "/api/case", {{"X-Locard-Token", server.token()}});
   EXPECT_EQ(ok.status, 200);
   const auto summary = nlohmann::json::parse(ok.body);
   EXPECT_EQ(summary["case"]["title"], "test case");
@@ -208,10 +139,10 @@ TEST(ViewerServer, AnswersOnlyRequestsAddressedToThisMachine) {
   const std::string p = ":" + std::to_string(port);
   for (const std::string& host : std::vector<std::string>{"evil.example", "evil.example" + p, "127.0.0.1.evil.example",
                                  "192.168.1.20" + p, "[::2]" + p, "localhost.evil"})
-    EXPECT_EQ(request(port, "GET", target, {{"Host", host}}).status, 403) << host;
+    EXPECT_EQ(test::http_request(port, "GET", target, {{"Host", host}}).status, 403) << host;
   for (const std::string& host :
        std::vector<std::string>{"127.0.0.1" + p, "localhost" + p, "LOCALHOST", "[::1]" + p})
-    EXPECT_EQ(request(port, "GET", target, {{"Host", host}}).status, 200) << host;
+    EXPECT_EQ(test::http_request(port, "GET", target, {{"Host", host}}).status, 200) << host;
   server.stop();
 }
 
@@ -225,11 +156,11 @@ TEST(ViewerServer, RefusesPathTraversal) {
        {"/case/../secret.txt", "/case/..%2fsecret.txt", "/case/mesh/..%2f..%2fsecret.txt",
         "/case/%2e%2e/secret.txt", "/case/..%5csecret.txt", "/..%2fsecret.txt",
         "/case/%2fetc%2fpasswd", "/case//etc/passwd"}) {
-    const Reply r = request(port, "GET", path + q);
+    const Reply r = test::http_request(port, "GET", path + q);
     EXPECT_TRUE(r.status == 403 || r.status == 404) << path << ": " << r.status;
     EXPECT_EQ(r.body.find("outside the case"), std::string::npos) << path;
   }
-  const Reply r = request(port, "GET", "/case/mesh/mesh.json" + q);
+  const Reply r = test::http_request(port, "GET", "/case/mesh/mesh.json" + q);
   EXPECT_EQ(r.status, 200);
   EXPECT_EQ(r.headers.at("content-type"), "application/json");
 }
@@ -240,7 +171,7 @@ TEST(ViewerServer, SavesMarkersThroughTheIntegrityLog) {
   server.start();
   const std::uint16_t port = server.port();
   const std::map<std::string, std::string> auth = {{"X-Locard-Token", server.token()}};
-  Reply r = request(port, "POST", "/api/markers", auth,
+  Reply r = test::http_request(port, "POST", "/api/markers", auth,
                     R"({"position": [1.0, 2.0, 0.5], "label": "Casing", "note": "n",
                         "snap": false})");
   ASSERT_EQ(r.status, 201) << r.body;
@@ -252,15 +183,15 @@ TEST(ViewerServer, SavesMarkersThroughTheIntegrityLog) {
        {"not json", R"({"label": "x"})", R"({"position": [1, 2], "label": "x"})",
         R"({"position": [1, "a", 3], "label": "x"})",
         R"({"position": [1, 2, 3], "label": "Casing", "snap": false})"}) {
-    r = request(port, "POST", "/api/markers", auth, body);
+    r = test::http_request(port, "POST", "/api/markers", auth, body);
     EXPECT_EQ(r.status, 400) << body << ": " << r.body;
     EXPECT_TRUE(nlohmann::json::parse(r.body).contains("error")) << r.body;
   }
-  r = request(port, "GET", "/api/markers", auth);
+  r = test::http_request(port, "GET", "/api/markers", auth);
   const auto list = nlohmann::json::parse(r.body)["markers"];
   ASSERT_EQ(list.size(), 1u);
   EXPECT_EQ(list[0]["label"], "Casing");
-  r = request(port, "GET", "/api/nothing", auth);
+  r = test::http_request(port, "GET", "/api/nothing", auth);
   EXPECT_EQ(r.status, 404);
 
   std::ifstream log(f.case_dir / "log.jsonl");
