@@ -120,11 +120,17 @@ json manifest_from_log(const fs::path& root, const std::string& log_text) {
                                                  "damaged; nothing was written",
                                                  i + 1));
     }
-    for (const json& o : line.value("outputs", json::array()))
-      files[o.value("path", "")] = {{"bytes", o.value("bytes", std::uintmax_t{0})},
-                                    {"sha256", o.value("sha256", "")}};
-    for (const json& r : line.value("removed", json::array()))
-      if (r.is_string()) files.erase(r.get<std::string>());
+    try {  // verify, run before every change, reports wrong types; this only refuses them
+      for (const json& o : line.value("outputs", json::array()))
+        files[o.at("path").get<std::string>()] = {{"bytes", o.at("bytes").get<std::uintmax_t>()},
+                                                  {"sha256", o.at("sha256").get<std::string>()}};
+      for (const json& r : line.value("removed", json::array()))
+        if (r.is_string()) files.erase(r.get<std::string>());
+    } catch (const json::exception& e) {
+      throw_input_error(root / kLog, fmt::format("line {}: an output record is malformed ({}): "
+                                                 "the case's record is damaged; nothing was written",
+                                                 i + 1, e.what()));
+    }
   }
   files[kLog] = {{"bytes", log_text.size()}, {"sha256", sha256_hex(log_text)}};
   return {{"format", "locard-case-manifest/2"},

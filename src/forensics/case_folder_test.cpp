@@ -354,5 +354,42 @@ TEST(VerifyCase, InputsWhereverTheyLiveAndFilesAddedToTheInputFolder) {
   EXPECT_EQ(r.problems.size(), 2u);
 }
 
+// Issue 14 (fuzzing, case_fuzz's find): a log output whose "bytes" was a string ended verify
+// with nlohmann's raw type_error (std::terminate under the fuzzer). Every field of a record
+// edited to the wrong type - in the log, the manifest and case.json's inputs, chain re-made so
+// only the types are wrong - is now a finding naming the line and the field.
+TEST(CaseFolder, FieldsOfTheWrongTypeAreFindingsNotExceptions) {
+  const fs::path dir = test::scratch_dir();
+  { make_case(dir, dir / "input"); }
+  const CaseFolder c = CaseFolder::open(dir / "case", CaseAccess::Read);
+  std::string line = slurp(c.path("log.jsonl"));
+  line = line.substr(0, line.find('\n'));
+  nlohmann::json j = nlohmann::json::parse(line);
+  j["outputs"][1]["bytes"] = "x";
+  j["step"] = 7;
+  write(c.path("log.jsonl"), j.dump() + "\n");
+  nlohmann::json manifest = nlohmann::json::parse(slurp(c.path("manifest.json")));
+  manifest["log_head_sha256"] = nlohmann::json::array();
+  manifest["files"]["mesh/mesh.ply"]["sha256"] = 12;
+  write(c.path("manifest.json"), manifest.dump());
+  nlohmann::json cj = nlohmann::json::parse(slurp(c.path("case.json")));
+  cj["inputs"]["files"][0]["sha256"] = false;
+  write(c.path("case.json"), cj.dump());
+
+  VerifyReport r;
+  ASSERT_NO_THROW(r = verify_case(c.root(), true));
+  std::string all;
+  for (const auto& p : r.problems) all += std::string(to_string(p.kind)) + " " + p.path + ": " + p.detail + "\n";
+  EXPECT_NE(all.find("line 1: \"bytes\" is string, not a whole number"), std::string::npos) << all;
+  EXPECT_NE(all.find("line 1: \"step\" is number, not a string"), std::string::npos) << all;
+  EXPECT_NE(all.find("manifest.json: \"log_head_sha256\" is array, not a string"), std::string::npos) << all;
+  EXPECT_NE(all.find("manifest.json: \"sha256\" is number, not a string"), std::string::npos) << all;
+  EXPECT_NE(all.find("case.json inputs: \"sha256\" is boolean, not a string"), std::string::npos) << all;
+  // A command that would change the case refuses it, naming the finding; nothing is written.
+  const std::string log_before = slurp(c.path("log.jsonl"));
+  EXPECT_THROW((void)CaseFolder::open(c.root(), CaseAccess::Change), CaseNotIntact);
+  EXPECT_EQ(slurp(c.path("log.jsonl")), log_before);
+}
+
 }  // namespace
 }  // namespace locard::forensics

@@ -43,26 +43,69 @@ struct LogRecord {
   std::map<std::string, OpenCommand> open;  // by step name
 };
 
+// Fields of a record that may have been edited by hand. A field is read only when it has the
+// type the writer gives it; a wrong type reads as absent and is itself a finding (of `kind`, on
+// `file`), so verify reports what it cannot read instead of throwing out of the check (the
+// case fuzzer's first find: a log output with "bytes": "x" ended verify with a raw type_error).
+class Fields {
+ public:
+  Fields(VerifyReport* report, Kind kind, std::string file, std::string where)
+      : report_(report), kind_(kind), file_(std::move(file)), where_(std::move(where)) {}
+
+  std::string text(const json& record, const char* key, std::string absent = "") const {
+    const json* f = typed(record, key, &json::is_string, "a string");
+    return f ? f->get<std::string>() : absent;
+  }
+  std::uintmax_t count(const json& record, const char* key) const {
+    const json* f = typed(record, key, &json::is_number_unsigned, "a whole number");
+    return f ? f->get<std::uintmax_t>() : 0;
+  }
+  json list(const json& record, const char* key) const {
+    const json* f = typed(record, key, &json::is_array, "a list");
+    return f ? *f : json::array();
+  }
+  json object(const json& record, const char* key) const {
+    const json* f = typed(record, key, &json::is_object, "an object");
+    return f ? *f : json::object();
+  }
+
+ private:
+  const json* typed(const json& record, const char* key, bool (json::*is)() const noexcept,
+                    const char* expected) const {
+    if (!record.is_object()) return nullptr;
+    const auto it = record.find(key);
+    if (it == record.end()) return nullptr;
+    if (((*it).*is)()) return &*it;
+    if (report_)
+      report_->problems.push_back({kind_, file_, fmt::format("{}: \"{}\" is {}, not {}", where_, key,
+                                                             it->type_name(), expected)});
+    return nullptr;
+  }
+  VerifyReport* report_;  // null: wrong types read as absent, unreported (already reported)
+  Kind kind_;
+  std::string file_, where_;
+};
+
 std::string line_name(const json& line, std::size_t number) {
-  return fmt::format("line {} '{}' ({})", number, line.value("step", "?"), line.value("time", "?"));
+  const Fields quiet(nullptr, Kind::LogChain, kLog, "");
+  return fmt::format("line {} '{}' ({})", number, quiet.text(line, "step", "?"), quiet.text(line, "time", "?"));
 }
 
 // Tracks begin / complete / failed lines of multi-step commands.
 void note_phase(const json& line, std::size_t number, LogRecord& log, VerifyReport& report) {
   const std::optional<StepPhase> phase = parse_phase(line);
-  const std::string step = line.value("step", "");
+  const Fields quiet(nullptr, Kind::LogChain, kLog, "");  // scan_log reported wrong types
+  const std::string step = quiet.text(line, "step");
   if (!phase) {
     report.problems.push_back({Kind::LogChain, kLog,
                                fmt::format("line {}: unknown phase {}", number,
                                            line["phase"].dump())});
     return;
   }
-  if (*phase == StepPhase::Begin) log.open[step] = {step, number, line.value("time", ""), ""};
+  if (*phase == StepPhase::Begin) log.open[step] = {step, number, quiet.text(line, "time"), ""};
   if (*phase == StepPhase::Complete) log.open.erase(step);
-  if (*phase == StepPhase::Failed && log.open.count(step)) {
-    const json& p = line.value("parameters", json::object());
-    log.open[step].failure = p.is_object() ? p.value("error", "") : "";
-  }
+  if (*phase == StepPhase::Failed && log.open.count(step))
+    log.open[step].failure = quiet.text(quiet.object(line, "parameters"), "error");
 }
 
 // The hash chain, the order, the recorded outputs and the open commands.
@@ -82,7 +125,10 @@ LogRecord scan_log(const fs::path& root, VerifyReport& report) {
       report.problems.push_back({Kind::LogChain, kLog, fmt::format("line {} is not an object", i + 1)});
       continue;
     }
-    const std::string prev = line.value("prev_sha256", "");
+    const Fields fields(&report, Kind::LogChain, kLog, fmt::format("line {}", i + 1));
+    const std::string prev = fields.text(line, "prev_sha256");
+    (void)fields.text(line, "step");
+    (void)fields.text(line, "time");
     const std::string expected = i == 0 ? std::string() : sha256_hex(log.lines[i - 1]);
     if (prev != expected)
       report.problems.push_back(
@@ -93,17 +139,16 @@ LogRecord scan_log(const fs::path& root, VerifyReport& report) {
       report.problems.push_back(
           {Kind::LogChain, kLog, fmt::format("line {}: seq {} out of order", i + 1,
                                              line.value("seq", json()).dump())});
-    const json outputs = line.value("outputs", json::array());
-    if (outputs.is_array())
-      for (const json& o : outputs)
-        if (o.is_object())
-          log.outputs[o.value("path", "")] = {o.value("sha256", ""),
-                                              o.value("bytes", std::uintmax_t{0}), i + 1,
-                                              line.value("step", "")};
-    const json removed = line.value("removed", json::array());
-    if (removed.is_array())
-      for (const json& r : removed)
-        if (r.is_string()) log.outputs.erase(r.get<std::string>());
+    for (const json& o : fields.list(line, "outputs")) {
+      const std::string path = fields.text(o, "path");
+      if (!o.is_object() || path.empty()) {
+        report.problems.push_back({Kind::LogChain, kLog, fmt::format("line {}: an output without a path: {}", i + 1, o.dump())});
+        continue;
+      }
+      log.outputs[path] = {fields.text(o, "sha256"), fields.count(o, "bytes"), i + 1, fields.text(line, "step")};
+    }
+    for (const json& r : fields.list(line, "removed"))
+      if (r.is_string()) log.outputs.erase(r.get<std::string>());
     note_phase(line, i + 1, log, report);
   }
   report.log_head_sha256 = log.lines.empty() ? std::string() : sha256_hex(log.lines.back());
@@ -135,8 +180,9 @@ void check_manifest(const fs::path& root, const LogRecord& log, VerifyReport& re
   if (!manifest.is_object() || !manifest.contains("files") || !manifest["files"].is_object())
     throw_input_error(root / kManifest, "no \"files\" object");
   const json& files = manifest["files"];
+  const Fields fields(&report, Kind::Manifest, kManifest, "manifest.json");
   for (const auto& [rel, entry] : files.items()) {
-    const std::string listed = entry.is_object() ? entry.value("sha256", "") : "";
+    const std::string listed = fields.text(entry, "sha256");
     if (rel == kLog) continue;
     const auto it = log.outputs.find(rel);
     if (it == log.outputs.end())
@@ -154,19 +200,20 @@ void check_manifest(const fs::path& root, const LogRecord& log, VerifyReport& re
   if (!files.contains(kLog) || !files[kLog].is_object()) {
     report.problems.push_back({Kind::Manifest, kLog, "not listed in manifest.json"});
   } else if (fs::is_regular_file(root / kLog)) {
-    const std::string listed = files[kLog].value("sha256", "");
+    const std::string listed = fields.text(files[kLog], "sha256");
     const std::string found = sha256_file(root / kLog);
     if (found != listed)
       report.problems.push_back({Kind::Changed, kLog,
                                  fmt::format("sha256 {} in manifest.json, {} found", listed, found)});
   }
   const std::string head = report.log_head_sha256;
-  if (manifest.value("log_head_sha256", "") != head)
+  const std::string recorded_head = fields.text(manifest, "log_head_sha256");
+  if (recorded_head != head)
     report.problems.push_back(
         {Kind::LogChain, kLog,
          fmt::format("the log's last line hashes to {}, manifest.json records {} (lines "
                      "removed or added after the manifest)",
-                     head, manifest.value("log_head_sha256", ""))});
+                     head, recorded_head)});
 }
 
 // Files on disk that no step recorded (planted, or left by a command that was interrupted).
@@ -199,20 +246,23 @@ void check_inputs(const fs::path& root, VerifyReport& report) {
   if (!case_json.is_object() || !case_json.contains("inputs") || !case_json["inputs"].is_object())
     return;
   const json& in = case_json["inputs"];
-  const fs::path input_root = in.value("root", "");
+  const Fields fields(&report, Kind::InputChanged, kCase, "case.json inputs");
+  const fs::path input_root = fields.text(in, "root");
   std::set<std::string> recorded;
-  for (const json& f : in.value("files", json::array())) {
+  for (const json& f : fields.list(in, "files")) {
     ++report.inputs_checked;
-    const fs::path p = input_root / f.value("path", "");  // an absolute path stays itself
-    recorded.insert(fs::path(f.value("path", "")).generic_string());
-    if (!fs::is_regular_file(p)) {
+    const std::string path = fields.text(f, "path");
+    const fs::path p = input_root / path;  // an absolute path stays itself
+    recorded.insert(fs::path(path).generic_string());
+    if (path.empty() || !fs::is_regular_file(p)) {
       report.problems.push_back({Kind::InputMissing, p.string(), "recorded input not found"});
       continue;
     }
     const std::string found = sha256_file(p);
-    if (found != f.value("sha256", ""))
+    const std::string logged = fields.text(f, "sha256");
+    if (found != logged)
       report.problems.push_back({Kind::InputChanged, p.string(),
-                                 fmt::format("sha256 {} at ingestion, {} now", f.value("sha256", ""), found)});
+                                 fmt::format("sha256 {} at ingestion, {} now", logged, found)});
   }
   if (!fs::is_directory(input_root)) return;
   for (const std::string& rel : list_files_recursive(input_root))

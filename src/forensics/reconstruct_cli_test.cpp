@@ -222,9 +222,6 @@ TEST_F(ReconstructCli, SameInputAndSeedGiveTheSameModel) {
     EXPECT_EQ(sha256_file(again / f), sha256_file(case_dir() / f)) << f;
 }
 
-// Issue 14 (lost writes): ten `marker add` at once on one case kept one marker (each read the
-// same markers.json and the last write won) and verify still said OK. The case lock makes them
-// take turns: ten markers, numbered 1-10 once each, ten log steps, verify OK.
 // Issue 14 (forgery): change a mesh byte, put the new hash in the log and the manifest and
 // re-chain every prev_sha256 - verify alone cannot tell. The log head a command printed is the
 // anchor: verify --expect-head with it fails once the steps up to it were rewritten, and

@@ -214,6 +214,10 @@ struct ViewerServer::Impl {
   }
 
   void install_routes() {
+    // httplib sends a reply's head and body in separate writes: with Nagle's algorithm on, the
+    // body waited for the client's delayed ACK, 40-50 ms on every request over a kept-alive
+    // connection (measured: 45 ms per API call, 1 ms with this).
+    server.set_tcp_nodelay(true);
     server.set_pre_routing_handler([this](const httplib::Request& req, httplib::Response& res) {
       set_common_headers(res);
       if (!loopback_host(req.get_header_value("Host"))) {
