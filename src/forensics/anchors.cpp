@@ -167,9 +167,15 @@ bool check_one_signature(const fs::path& root, const fs::path& file, EVP_PKEY* k
     problem(e.what());
     return true;
   }
-  if (!sig.is_object() || sig.value("public_key_sha256", "") != id) return false;
-  const std::string message = sig.value("message", "");
-  const auto bytes = unbase64(sig.value("signature_base64", ""));
+  // Fields of a file anyone could have written: a wrong type reads as absent (and then the
+  // signature does not hold), never as a raw JSON exception.
+  const auto text = [&sig](const char* field) {
+    const auto it = sig.is_object() ? sig.find(field) : sig.end();
+    return it != sig.end() && it->is_string() ? it->get<std::string>() : std::string();
+  };
+  if (!sig.is_object() || text("public_key_sha256") != id) return false;
+  const std::string message = text("message");
+  const auto bytes = unbase64(text("signature_base64"));
   MdCtx ctx(EVP_MD_CTX_new());
   const bool valid =
       bytes && ctx && EVP_DigestVerifyInit(ctx.get(), nullptr, nullptr, nullptr, key) == 1 &&

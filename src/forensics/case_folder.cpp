@@ -214,6 +214,82 @@ std::vector<std::string> list_files_recursive(const fs::path& folder) {
   return out;
 }
 
+namespace {
+
+// A change another process began and never finished (its journal is still there, and we hold
+// the case's lock, so that process is gone). If the log's head is still the one the journal
+// recorded, its step was never logged: every file it may have written goes back to the kept
+// version, or is removed if it did not exist. Otherwise the step was logged and only the kept
+// copies are left to drop. Returns the paths put back.
+std::vector<std::string> undo_one_interrupted(const fs::path& root, const fs::path& journal_file) {
+  const fs::path kept = journal_file.parent_path() / journal_file.stem();
+  std::vector<std::string> restored;
+  json journal;
+  try {
+    journal = parse_json_file(journal_file);
+  } catch (const InputError&) {
+    journal = json();  // written atomically: unreadable only if edited by hand
+  }
+  const auto text = [&journal](const char* key) {
+    const auto it = journal.is_object() ? journal.find(key) : journal.end();
+    return it != journal.end() && it->is_string() ? it->get<std::string>() : std::string();
+  };
+  const auto paths = journal.is_object() ? journal.find("paths") : journal.end();
+  if (paths == journal.end() || !paths->is_array())
+    throw_input_error(journal_file, "an interrupted change left a journal that cannot be read: "
+                                    "the case cannot be restored automatically");
+  if (text("log_head_sha256") == log_head_sha256(root)) {
+    for (const json& entry : *paths) {
+      const auto path = entry.is_object() ? entry.find("path") : entry.end();
+      const auto existed = entry.is_object() ? entry.find("existed") : entry.end();
+      if (path == entry.end() || !path->is_string() || existed == entry.end() || !existed->is_boolean())
+        throw_input_error(journal_file, "an interrupted change left a malformed journal entry: " + entry.dump());
+      const fs::path rel = path->get<std::string>();
+      if (rel.is_absolute() || rel.lexically_normal().string().rfind("..", 0) == 0)
+        throw_input_error(journal_file, "an interrupted change's journal names a path outside the case: " + rel.string());
+      std::error_code ec;
+      if (existed->get<bool>())
+        fs::rename(kept / rel, root / rel, ec);
+      else
+        fs::remove(root / rel, ec);
+      if (ec) throw_input_error(root / rel, "cannot restore it after an interrupted change: " + ec.message());
+      restored.push_back(rel.generic_string());
+    }
+  } else {
+    // Logged: killed after the log's rename, perhaps before the manifest's. The manifest is
+    // the log's summary, so it is written again from the log (the same bytes if it was).
+    write_log_and_manifest(root, read_text(root / kLog));
+  }
+  std::error_code ec;
+  fs::remove_all(kept, ec);
+  fs::remove(journal_file, ec);
+  return restored;
+}
+
+}  // namespace
+
+std::vector<std::string> recover_interrupted_changes(const fs::path& root) {
+  std::vector<std::string> restored;
+  const fs::path undo = root / kUndo;
+  if (!fs::is_directory(undo)) return restored;
+  const std::string own = std::to_string(::getpid()) + "-";
+  std::vector<fs::path> journals, orphans;
+  for (const auto& entry : fs::directory_iterator(undo)) {
+    const std::string name = entry.path().filename().string();
+    if (name.rfind(own, 0) == 0) continue;  // a change of this process, still under way
+    if (entry.path().extension() == ".json") journals.push_back(entry.path());
+    else if (!fs::exists(entry.path().string() + ".json")) orphans.push_back(entry.path());
+  }
+  for (const fs::path& j : journals)
+    for (std::string& r : undo_one_interrupted(root, j)) restored.push_back(std::move(r));
+  // Kept copies without a journal: killed before its journal was written, so before the step
+  // wrote anything - there is nothing to undo.
+  std::error_code ec;
+  for (const fs::path& o : orphans) fs::remove_all(o, ec);
+  fs::remove(undo, ec);  // only when empty
+  return restored;
+}
+
 CaseFolder CaseFolder::create(const fs::path& root, bool force) {
   if (fs::exists(root) && !fs::is_directory(root))
     throw_input_error(root, "the case folder is a file; choose another path");
@@ -249,10 +325,17 @@ CaseFolder CaseFolder::open(const fs::path& root, CaseAccess access) {
     throw_input_error(root, "not a Locard case folder: manifest.json is missing");
   CaseFolder folder(root, CaseLock::acquire(root), access);
   if (access == CaseAccess::Change) {
+    const std::vector<std::string> restored = recover_interrupted_changes(root);
     // Verified under the lock, before anything is written: a step appended to a case that
     // does not verify would bury the finding under a new, consistent manifest.
     VerifyReport report = verify_case(root, false);
     if (!report.ok()) throw CaseNotIntact(root, std::move(report.problems));
+    if (!restored.empty()) {  // on the record: a command was interrupted, and what was undone
+      LogStep step;
+      step.step = "recover interrupted change";
+      step.parameters_json = json{{"restored", restored}}.dump();
+      folder.append_log_step(step);
+    }
   }
   return folder;
 }
@@ -321,9 +404,11 @@ CaseChange::CaseChange(CaseFolder& folder, std::vector<fs::path> may_write)
       fs::create_hard_link(full, undo_ / p, ec);
       if (ec) fs::copy_file(full, undo_ / p);
     }
+    write_undo_journal();
   } catch (...) {
     // Nothing was written yet: only what was kept aside goes.
     std::error_code ec;
+    fs::remove(undo_.string() + ".json", ec);
     fs::remove_all(undo_, ec);
     fs::remove(folder_.root() / kUndo, ec);
     throw;
@@ -334,6 +419,21 @@ CaseChange::~CaseChange() {
   if (!committed_) roll_back();
 }
 
+// Written before the step writes anything, so a process killed (kill -9, power loss) in the
+// middle of its change leaves what the next command needs to undo it: which files the step
+// may have written, which existed, and the log's head before it (see recover_interrupted).
+void CaseChange::write_undo_journal() {
+  json paths = json::array();
+  for (std::size_t i = 0; i < paths_.size(); ++i)
+    paths.push_back({{"path", paths_[i].generic_string()}, {"existed", static_cast<bool>(existed_[i])}});
+  fs::create_directories(undo_.parent_path());
+  AtomicFile journal(undo_.string() + ".json", false);
+  journal.stream() << json{{"pid", ::getpid()}, {"log_head_sha256", log_head_sha256(folder_.root())},
+                           {"paths", paths}}
+                          .dump();
+  journal.commit();
+}
+
 void CaseChange::roll_back() noexcept {
   std::error_code ec;
   for (std::size_t i = 0; i < paths_.size(); ++i) {
@@ -342,6 +442,7 @@ void CaseChange::roll_back() noexcept {
     else fs::remove(full, ec);
   }
   fs::remove_all(undo_, ec);
+  fs::remove(undo_.string() + ".json", ec);
   fs::remove(folder_.root() / kUndo, ec);  // only when empty
 }
 
@@ -349,6 +450,7 @@ std::size_t CaseChange::commit(const LogStep& step) {
   const std::size_t seq = folder_.append_log_step(step);
   committed_ = true;
   std::error_code ec;
+  fs::remove(undo_.string() + ".json", ec);  // first: from here on the step is logged
   fs::remove_all(undo_, ec);
   fs::remove(folder_.root() / kUndo, ec);
   return seq;

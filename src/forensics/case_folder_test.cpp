@@ -4,6 +4,7 @@
 #include <locard/forensics/evidence_markers.hpp>
 #include <locard/forensics/integrity.hpp>
 
+#include <locard/core/atomic_file.hpp>
 #include <locard/core/error.hpp>
 
 #include <gtest/gtest.h>
@@ -12,6 +13,8 @@
 #include "test_support.hpp"
 
 #include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <chrono>
@@ -389,6 +392,69 @@ TEST(CaseFolder, FieldsOfTheWrongTypeAreFindingsNotExceptions) {
   const std::string log_before = slurp(c.path("log.jsonl"));
   EXPECT_THROW((void)CaseFolder::open(c.root(), CaseAccess::Change), CaseNotIntact);
   EXPECT_EQ(slurp(c.path("log.jsonl")), log_before);
+}
+
+// Issue 14 (writers that cannot lose data): a command killed (SIGKILL) in the middle of its
+// change left its half-written file and the kept copies in .locard-undo/, and the case then
+// read as tampered for good. Verify now says a change was interrupted; the next command that
+// changes the case puts the files back from the journal, logs that it did, and goes on.
+TEST(CaseChange, AChangeKilledHalfWayIsUndoneByTheNextCommand) {
+  const fs::path dir = test::scratch_dir();
+  { make_case(dir, dir / "input"); }
+  const fs::path root = dir / "case";
+  const std::string mesh_before = slurp(root / "mesh" / "mesh.ply");
+  const pid_t child = ::fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {  // the command that is killed: no destructor, no commit runs
+    CaseFolder folder = CaseFolder::open(root, CaseAccess::Change);
+    CaseChange change(folder, {"mesh/mesh.ply", "evidence/new.json"});
+    {  // as the writers do: a whole new file renamed over the old one
+      AtomicFile mesh(root / "mesh" / "mesh.ply");
+      mesh.stream() << "a new mesh";
+      mesh.commit();
+    }
+    write(root / "evidence" / "new.json", "{");  // and one half-written
+    ::raise(SIGKILL);
+  }
+  int status = 0;
+  ASSERT_EQ(::waitpid(child, &status, 0), child);
+  ASSERT_TRUE(WIFSIGNALED(status));
+  ASSERT_TRUE(fs::exists(root / ".locard-undo"));
+
+  const VerifyReport before = verify_case(root, false);
+  EXPECT_TRUE(findings(before).count("changed mesh/mesh.ply")) << before.problems.size();
+  bool interrupted = false;
+  for (const auto& p : before.problems)
+    interrupted |= p.kind == VerifyProblem::Kind::Incomplete && p.path.rfind(".locard-undo/", 0) == 0;
+  EXPECT_TRUE(interrupted);
+
+  {
+    CaseFolder folder = CaseFolder::open(root, CaseAccess::Change);  // recovers, then verifies
+    EXPECT_EQ(slurp(root / "mesh" / "mesh.ply"), mesh_before);
+    EXPECT_FALSE(fs::exists(root / "evidence" / "new.json"));
+    EXPECT_FALSE(fs::exists(root / ".locard-undo"));
+  }
+  const VerifyReport after = verify_case(root, true);
+  EXPECT_TRUE(after.ok()) << (after.ok() ? "" : after.problems[0].path + ": " + after.problems[0].detail);
+  const std::string log = slurp(root / "log.jsonl");
+  EXPECT_NE(log.find("\"step\":\"recover interrupted change\""), std::string::npos) << log;
+  EXPECT_NE(log.find("mesh/mesh.ply"), std::string::npos);
+}
+
+// Issue 14: anchors/ is outside the log, and a file planted there went unreported. Only a
+// signature or time stamp named for a line of this log may be there.
+TEST(VerifyCase, AFilePlantedAmongTheAnchorsIsReported) {
+  const fs::path dir = test::scratch_dir();
+  { make_case(dir, dir / "input"); }
+  const fs::path root = dir / "case";
+  const std::string head16 = log_head_sha256(root).substr(0, 16);
+  write(root / "anchors" / ("timestamp-" + head16 + ".tsr"), "token");
+  write(root / "anchors" / ("signature-" + head16 + "-0123abcd.json"), "{}");
+  EXPECT_TRUE(verify_case(root, false).ok());
+  write(root / "anchors" / "notes.txt", "planted");
+  write(root / "anchors" / "timestamp-0000000000000000.tsr", "of another case");
+  EXPECT_EQ(findings(verify_case(root, false)),
+            (std::set<std::string>{"added anchors/notes.txt", "added anchors/timestamp-0000000000000000.tsr"}));
 }
 
 }  // namespace

@@ -216,11 +216,45 @@ void check_manifest(const fs::path& root, const LogRecord& log, VerifyReport& re
                      head, recorded_head)});
 }
 
+bool is_hex(std::string_view s, std::size_t n) {
+  return s.size() == n && s.find_first_not_of("0123456789abcdef") == std::string_view::npos;
+}
+
+// anchors/ is outside the log (a signature cannot be in the log it signs), so what may be there
+// is checked by name: `locard sign`'s signature-HEAD16-KEY8.json and `timestamp store`'s
+// timestamp-HEAD16.tsr, HEAD16 the start of the hash of one of this log's lines. Whether an
+// anchor holds takes the trusted key or TSA certificate (verify --public-key / --tsa-cert).
+bool is_anchor_of_this_log(const std::string& name, const std::set<std::string>& line_prefixes) {
+  std::string head;
+  if (name.rfind("signature-", 0) == 0 && name.size() == 10 + 16 + 1 + 8 + 5 &&
+      name.compare(name.size() - 5, 5, ".json") == 0 && name[26] == '-' &&
+      is_hex(std::string_view(name).substr(27, 8), 8))
+    head = name.substr(10, 16);
+  else if (name.rfind("timestamp-", 0) == 0 && name.size() == 10 + 16 + 4 &&
+           name.compare(name.size() - 4, 4, ".tsr") == 0)
+    head = name.substr(10, 16);
+  return is_hex(head, 16) && line_prefixes.count(head);
+}
+
 // Files on disk that no step recorded (planted, or left by a command that was interrupted).
 void check_unrecorded(const fs::path& root, const LogRecord& log, VerifyReport& report) {
   const std::string anchors = std::string(kAnchors) + "/";
+  std::set<std::string> line_prefixes;
+  for (const std::string& line : log.lines) line_prefixes.insert(sha256_hex(line).substr(0, 16));
   for (const std::string& rel : list_files_recursive(root)) {
-    if (rel == kManifest || rel == kLog || rel.rfind(anchors, 0) == 0) continue;
+    if (rel == kManifest || rel == kLog) continue;
+    if (rel.rfind(anchors, 0) == 0) {
+      if (!is_anchor_of_this_log(rel.substr(anchors.size()), line_prefixes))
+        report.problems.push_back({Kind::Added, rel, "in anchors/, not a signature or time stamp of "
+                                                     "a line of this case's log"});
+      continue;
+    }
+    if (rel.rfind(std::string(kUndo) + "/", 0) == 0) {
+      report.problems.push_back({Kind::Incomplete, rel, "kept by a command that was interrupted while "
+                                 "changing the case; the next command that changes it puts its "
+                                 "files back (and logs that it did)"});
+      continue;
+    }
     if (!log.outputs.count(rel))
       report.problems.push_back({Kind::Added, rel, "on disk, recorded by no step of the log"});
   }

@@ -162,6 +162,7 @@ class CaseChange {
 
  private:
   void roll_back() noexcept;
+  void write_undo_journal();
   CaseFolder& folder_;
   std::vector<std::filesystem::path> paths_;  // case-relative
   std::vector<bool> existed_;
@@ -169,6 +170,12 @@ class CaseChange {
   bool committed_ = false;
 };
 
+
+// Undoes what a command killed in the middle of a CaseChange (kill -9, power loss) had begun to
+// write, from the journal it left in .locard-undo/: its files go back to their logged versions
+// (or the step's log line is already there, and only the kept copies go). Call under the case's
+// lock; CaseFolder::open(Change) does, before it verifies. Returns the case-relative paths put back.
+std::vector<std::string> recover_interrupted_changes(const std::filesystem::path& root);
 
 struct VerifyReport {
   std::size_t files_checked = 0;
