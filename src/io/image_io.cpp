@@ -259,6 +259,7 @@ class JpegReader {
     if (h_.cinfo.image_width > static_cast<unsigned>(kMaxSide) ||
         h_.cinfo.image_height > static_cast<unsigned>(kMaxSide))
       throw_input_error(path_, "JPEG claims an implausible size");
+    detail::check_image_pixels(path_, h_.cinfo.image_width, h_.cinfo.image_height);
   }
   JpegReader(const JpegReader&) = delete;
   JpegReader& operator=(const JpegReader&) = delete;

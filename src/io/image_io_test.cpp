@@ -362,5 +362,33 @@ TEST(ImageIo, PngClaimingMorePixelsThanItHoldsIsRefusedBeforeAllocating) {
   }
 }
 
+// Issue 14 (jpeg_fuzz, finding 4): a JPEG's header may claim up to 65535 x 65535 and its data
+// be a few bytes (a flat image, long end-of-band runs: no useful compression bound), and
+// read_color_image allocated the decoded size first - 5.5 GB for 55551 x 33023. The pixel
+// budget PNG has now holds for JPEG too. Here a real 7-Scenes frame with its SOF0 size patched.
+TEST(ImageIo, JpegClaimingAHugeSizeIsRefusedBeforeAllocating) {
+  const fs::path dir = test::scratch_dir();
+  std::vector<char> bytes = read_bytes(seven_scenes("frame-000000.color.jpg"));
+  std::size_t sof = 2;
+  while (sof + 9 < bytes.size() && !(static_cast<unsigned char>(bytes[sof]) == 0xFF &&
+                                     static_cast<unsigned char>(bytes[sof + 1]) == 0xC0))
+    ++sof;
+  ASSERT_LT(sof + 9, bytes.size()) << "no SOF0 marker";
+  const auto put16 = [&](std::size_t at, unsigned v) {
+    bytes[at] = static_cast<char>(v >> 8);
+    bytes[at + 1] = static_cast<char>(v & 0xFF);
+  };
+  put16(sof + 5, 33023);  // height
+  put16(sof + 7, 55551);  // width
+  write_bytes(dir / "huge.jpg", bytes);
+  EXPECT_THAT([&] { read_color_image(dir / "huge.jpg"); },
+              ThrowsMessage<InputError>(AllOf(HasSubstr("huge.jpg"), HasSubstr("at most 128 M pixels"))));
+  EXPECT_THAT([&] { read_image_info(dir / "huge.jpg"); },
+              ThrowsMessage<InputError>(HasSubstr("huge.jpg")));
+  // The fuzzer's own input stays in the corpus (fuzz/corpus/jpeg/oom-55551x33023.jpg).
+  EXPECT_THAT([] { read_color_image(fs::path(LOCARD_SOURCE_DIR) / "fuzz/corpus/jpeg/oom-55551x33023.jpg"); },
+              ThrowsMessage<InputError>(HasSubstr("at most 128 M pixels")));
+}
+
 }  // namespace
 }  // namespace locard

@@ -82,15 +82,20 @@ void unfilter_row(int type, const std::uint8_t* in, const std::uint8_t* prev, st
 
 }  // namespace
 
+void check_image_pixels(const std::filesystem::path& path, std::uint64_t width,
+                        std::uint64_t height) {
+  constexpr std::uint64_t kMaxImagePixels = std::uint64_t{1} << 27;
+  if (width * height > kMaxImagePixels)  // both < 2^32: no overflow
+    throw_input_error(path, fmt::format("the header claims {} x {} pixels (at most {} M pixels "
+                                        "are read)", width, height, kMaxImagePixels >> 20));
+}
+
 void check_image_budget(const std::filesystem::path& path, std::uint64_t width,
                         std::uint64_t height, std::uint64_t bytes_per_pixel,
                         std::uint64_t compressed_bytes) {
-  constexpr std::uint64_t kMaxImagePixels = std::uint64_t{1} << 27;
   constexpr std::uint64_t kMaxDeflateRatio = 1032;
-  const std::uint64_t pixels = width * height;  // both < 2^32: no overflow
-  if (pixels > kMaxImagePixels)
-    throw_input_error(path, fmt::format("the header claims {} x {} pixels (at most {} M pixels "
-                                        "are read)", width, height, kMaxImagePixels >> 20));
+  check_image_pixels(path, width, height);
+  const std::uint64_t pixels = width * height;
   const std::uint64_t decoded = pixels * bytes_per_pixel + height;  // a filter byte per row
   if (decoded > kMaxDeflateRatio * compressed_bytes + 1024)
     throw_input_error(path, fmt::format("corrupt or truncated PNG: the header claims {} x {} "

@@ -36,6 +36,11 @@ bool decode_png_fast(const std::filesystem::path& path, const std::vector<std::u
 // no more decoded bytes than the compressed data can hold (deflate expands at most 1032:1).
 // A 69-byte PNG claiming 65535 x 65535 once made both decoders allocate gigabytes. InputError
 // naming the file otherwise.
+// The pixel budget alone (at most 2^27 pixels, 128 M), for decoders whose compression has no
+// useful bound (a JPEG of one flat colour, or with long end-of-band runs, is tiny): a 382-byte
+// JPEG claiming 65500 x 28000 made read_color_image allocate 5.5 GB (jpeg_fuzz).
+void check_image_pixels(const std::filesystem::path& path, std::uint64_t width,
+                        std::uint64_t height);
 void check_image_budget(const std::filesystem::path& path, std::uint64_t width,
                         std::uint64_t height, std::uint64_t bytes_per_pixel,
                         std::uint64_t compressed_bytes);
