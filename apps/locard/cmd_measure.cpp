@@ -92,7 +92,13 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
       const auto m = fx::measure_point_to_point(model, a, b, so);
       written = fx::append_measurement(folder, name, m);
       result += fmt::format("{}: {:.4f} m +- {:.4f} m (k=2); ends {} and {}\n", name,
-                            m.distance_m, m.expanded_uncertainty_m, m.a.feature, m.b.feature);
+                            m.distance_m, m.expanded_uncertainty_m, fx::to_string(m.a.feature),
+                            fx::to_string(m.b.feature));
+      for (const auto& [end, p] : {std::pair{"from", &m.a}, std::pair{"to", &m.b}})
+        if (!fx::is_snapped(p->feature))
+          result += fmt::format("warning: the --{} end is {}; the distance is only as good as "
+                                "that pick, and U does not cover it\n",
+                                end, fx::describe(p->feature));
       params["kind"] = "point_to_point";
       params["from"] = o.from;
       params["to"] = o.to;

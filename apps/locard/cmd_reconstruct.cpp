@@ -81,6 +81,11 @@ int run_reconstruct(const ReconstructCli& o, const GlobalOptions& global) {
     if (s.measurements_not_measured)
       fmt::print("reconstruct: {} reference measurements not covered by the model\n",
                  s.measurements_not_measured);
+    if (s.measurements_not_snapped)
+      fmt::print("reconstruct: {} reference measurements with an end not snapped (no face, edge "
+                 "or corner across the line: the tape point is used as given, so they measure "
+                 "nothing)\n",
+                 s.measurements_not_snapped);
     std::string stages;
     for (const auto& [name, sec] : s.stage_seconds)
       stages += fmt::format("{}{} {:.1f} s", stages.empty() ? "" : ", ", name, sec);

@@ -290,6 +290,57 @@ std::vector<std::string> recover_interrupted_changes(const fs::path& root) {
   return restored;
 }
 
+namespace {
+
+constexpr const char* kEvidenceFolders[] = {"evidence", "measurements/measurements.json",
+                                            "trajectories", "simulations"};
+
+bool holds_evidence(const fs::path& root) {
+  for (const char* rel : kEvidenceFolders)
+    if (fs::is_regular_file(root / rel) || !list_files_recursive(root / rel).empty()) return true;
+  return false;
+}
+
+// Moves every file of the case but earlier archives into archive/replaced-<head16>/.
+void archive_whole_case(const fs::path& root, const std::string& head) {
+  const fs::path into = root / kArchive / ("replaced-" + (head.empty() ? std::string("empty") : head.substr(0, 16)));
+  if (fs::exists(into)) throw_input_error(into, "already exists: this case was archived before");
+  fs::create_directories(into);
+  for (const auto& entry : fs::directory_iterator(root)) {
+    const std::string name = entry.path().filename().string();
+    if (name != kArchive && name != kUndo) fs::rename(entry.path(), into / name);
+  }
+}
+
+// The new case's first step records the archive (its files are outputs, so verify holds them
+// to their hashes) and carries the earlier markers over: they are positions the investigator
+// chose on the scene, which a new model of the same scan still shows. Measurements,
+// trajectories and simulations were computed on the old model: they stay in the archive.
+void log_archive(CaseFolder& folder, const std::string& replaced_head) {
+  LogStep step;
+  step.step = "archive replaced case";
+  std::size_t markers = 0;
+  if (!replaced_head.empty()) {
+    const fs::path from = fs::path(kArchive) / ("replaced-" + replaced_head.substr(0, 16)) / "evidence";
+    for (const char* name : {"markers.json", "markers.csv"})
+      if (fs::is_regular_file(folder.root() / from / name)) {
+        fs::create_directories(folder.root() / "evidence");
+        fs::copy_file(folder.root() / from / name, folder.root() / "evidence" / name);
+        step.outputs.push_back(fs::path("evidence") / name);
+        markers += std::string_view(name) == "markers.json";
+      }
+  }
+  for (const std::string& rel : list_files_recursive(folder.root() / kArchive))
+    step.outputs.push_back(fs::path(kArchive) / rel);
+  step.parameters_json = json{{"replaced_log_head_sha256", replaced_head},
+                              {"archive", replaced_head.empty() ? "" : std::string(kArchive) + "/replaced-" + replaced_head.substr(0, 16)},
+                              {"markers_carried_over", markers > 0}}
+                             .dump();
+  folder.append_log_step(step);
+}
+
+}  // namespace
+
 CaseFolder CaseFolder::create(const fs::path& root, bool force) {
   if (fs::exists(root) && !fs::is_directory(root))
     throw_input_error(root, "the case folder is a file; choose another path");
@@ -312,8 +363,15 @@ CaseFolder CaseFolder::create(const fs::path& root, bool force) {
       throw InputError(fmt::format("--force replaces only a case that verifies: {}", e.what()));
     }
     if (!old.ok() && !old.only_incomplete()) throw CaseNotIntact(root, std::move(old.problems));
-    for (const auto& entry : fs::directory_iterator(root)) fs::remove_all(entry.path());
-    return CaseFolder(root, std::move(lock), CaseAccess::Change);
+    // What an investigator added (markers, measurements, trajectories, simulations) cannot be
+    // made again from the inputs: a case holding any is archived whole, not deleted.
+    const bool archived = holds_evidence(root);
+    if (archived) archive_whole_case(root, old.log_head_sha256);
+    for (const auto& entry : fs::directory_iterator(root))
+      if (entry.path().filename() != kArchive) fs::remove_all(entry.path());
+    CaseFolder folder(root, std::move(lock), CaseAccess::Change);
+    if (fs::is_directory(root / kArchive)) log_archive(folder, archived ? old.log_head_sha256 : "");
+    return folder;
   }
   fs::create_directories(root);
   return CaseFolder(root, CaseLock::acquire(root), CaseAccess::Change);

@@ -20,6 +20,9 @@ inline constexpr const char* kCase = "case.json";
 // Signatures and time stamps over the log head (anchors.hpp): they cover the manifest and the
 // log, so they cannot be listed in them; verify checks them on their own.
 inline constexpr const char* kAnchors = "anchors";
+// Earlier cases that `reconstruct --force` replaced while they held evidence (markers,
+// measurements, trajectories, simulations): each whole, under archive/replaced-<head16>/.
+inline constexpr const char* kArchive = "archive";
 // Where CaseChange keeps the previous versions of the files a step writes, until it commits.
 inline constexpr const char* kUndo = ".locard-undo";
 

@@ -162,6 +162,26 @@ Vector3d nearest_on_mesh(const CaseModel& model, const Vector3d& p) {
 
 }  // namespace
 
+std::string_view to_string(SnapFeature feature) {
+  switch (feature) {
+    case SnapFeature::Face: return "face";
+    case SnapFeature::Edge: return "edge";
+    case SnapFeature::Corner: return "corner";
+    case SnapFeature::EdgeOutermost: return "edge (outermost point)";
+    case SnapFeature::CornerOutermost: return "corner (outermost point)";
+    case SnapFeature::MeshSurface: return "surface";
+    case SnapFeature::NotSnapped: return "not snapped";
+  }
+  return "?";
+}
+
+std::string describe(SnapFeature feature) {
+  if (feature == SnapFeature::NotSnapped)
+    return "not snapped: the picked point is used as given (no face, edge or corner across the "
+           "measuring line within reach)";
+  return std::string(to_string(feature));
+}
+
 SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
                         const std::optional<Vector3d>& outward, const SnapOptions& options) {
   if (!point.allFinite()) throw InputError("measurement point has non-finite coordinates");
@@ -184,8 +204,13 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
   const std::vector<Plane> planes = find_planes(L, threshold, options.min_plane_points);
   s.planes = planes.size();
   if (planes.empty()) {
+    if (outward) {  // nothing to snap to across the line: as picked
+      s.feature = SnapFeature::NotSnapped;
+      s.covariance = pose_cov;
+      return s;
+    }
     s.snapped = nearest_on_mesh(model, point);
-    s.feature = "surface";
+    s.feature = SnapFeature::MeshSurface;
     const double v = model.model_voxel_m();
     s.covariance = Matrix3d::Identity() * (v * v / 12.0) + pose_cov;
     return s;
@@ -196,7 +221,7 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
     for (const Plane& p : planes)
       if (std::abs(p.distance(point)) < std::abs(nearest->distance(point))) nearest = &p;
     s.snapped = point - nearest->distance(point) * nearest->normal;
-    s.feature = "face";
+    s.feature = SnapFeature::Face;
     cov += nearest->normal * nearest->normal.transpose() * plane_offset_variance(*nearest, L);
     s.covariance = cov;
     return s;
@@ -247,7 +272,7 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
     (void)facing_t;
     const double c = facing->normal.dot(o);
     cov += o * o.transpose() * plane_offset_variance(*facing, L) / (c * c);
-    s.feature = side.empty() ? "face" : (side.size() == 1 ? "edge" : "corner");
+    s.feature = side.empty() ? SnapFeature::Face : (side.size() == 1 ? SnapFeature::Edge : SnapFeature::Corner);
   } else if (!side.empty()) {
     // Where do the side planes' points end along o, near the line through q? Counting, per
     // view: with w = edge_window_m, the points in the window [-2w, -w] give the view's density
@@ -316,7 +341,7 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
         const double lateral = model.noise().lateral_sigma_m(1.0);
         q += (farthest + 0.5 * step) * o;
         cov += o * o.transpose() * (step * step / 3.0 + lateral * lateral);
-        s.feature = side.size() == 1 ? "edge (outermost point)" : "corner (outermost point)";
+        s.feature = side.size() == 1 ? SnapFeature::EdgeOutermost : SnapFeature::CornerOutermost;
         s.snapped = q;
         s.covariance = cov;
         return s;
@@ -349,12 +374,14 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
       const double mixed = step * step / 12.0;
       const double var = jack + counting + step * step / 12.0 / n + lateral * lateral / n + mixed;
       cov += o * o.transpose() * var;
-      s.feature = side.size() == 1 ? "edge" : "corner";
+      s.feature = side.size() == 1 ? SnapFeature::Edge : SnapFeature::Corner;
     } else {
-      s.feature = "face";  // the surface goes on past the point: it keeps its place along o
+      // The surface goes on past the point: moved onto the side planes, across the line, but
+      // nothing fixes it along the line.
+      s.feature = SnapFeature::NotSnapped;
     }
   } else {
-    s.feature = "face";
+    s.feature = SnapFeature::NotSnapped;  // no plane across the line, none along it
   }
   s.snapped = q;
   s.covariance = cov;
@@ -510,7 +537,8 @@ std::vector<TableRow> compare_with_reference(const CaseModel& model,
     row.model_m = row.detail.distance_m;
     row.error_m = row.model_m - row.real_m;
     row.expanded_uncertainty_m = row.detail.expanded_uncertainty_m;
-    row.within_uncertainty = std::abs(row.error_m) <= row.expanded_uncertainty_m;
+    row.ends_snapped = is_snapped(row.detail.a.feature) && is_snapped(row.detail.b.feature);
+    row.within_uncertainty = row.ends_snapped && std::abs(row.error_m) <= row.expanded_uncertainty_m;
     rows.push_back(std::move(row));
   }
   return rows;
@@ -524,7 +552,8 @@ namespace {
 nlohmann::json snapped_json(const SnappedPoint& s) {
   return {{"given", vec_json(s.given)},
           {"snapped", vec_json(s.snapped)},
-          {"feature", s.feature},
+          {"feature", to_string(s.feature)},
+          {"snapped_to_feature", is_snapped(s.feature)},
           {"views", s.views},
           {"points", s.points},
           {"planes", s.planes},
@@ -619,11 +648,12 @@ void write_measurement_table(const CaseFolder& folder, const std::vector<TableRo
                          {"error_m", r.error_m},
                          {"expanded_uncertainty_m", r.expanded_uncertainty_m},
                          {"within_uncertainty", r.within_uncertainty},
+                         {"ends_snapped", r.ends_snapped},
                          {"measurement", p2p_json(r.detail)}});
     csv += fmt::format("{},{:.5f},{:.5f},{:.5f},{:.5f},{},{},{}\n", csv_field(r.name), r.real_m,
-                       r.model_m,
-                       r.error_m, r.expanded_uncertainty_m, r.within_uncertainty ? "yes" : "no",
-                       r.detail.a.feature, r.detail.b.feature);
+                       r.model_m, r.error_m, r.expanded_uncertainty_m,
+                       !r.ends_snapped ? "not snapped" : r.within_uncertainty ? "yes" : "no",
+                       to_string(r.detail.a.feature), to_string(r.detail.b.feature));
   }
   {
     AtomicFile f(folder.path("measurements/table.json"), false);

@@ -15,6 +15,7 @@
 #include <locard/forensics/report.hpp>
 #include <locard/io/mesh_export.hpp>
 #include <locard/io/ply.hpp>
+#include <locard/io/gravity.hpp>
 #include <locard/io/rgbd_sequence.hpp>
 #include <locard/io/trajectory_io.hpp>
 #include <locard/surface/fusion.hpp>
@@ -390,15 +391,32 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
   // Gauge: move the model so the first registered view sits at its known pose, if any.
   Isometry3d T_world_estimate = Isometry3d::Identity();
   std::string world_frame = "camera frame of the first registered view";
+  bool in_input_frame = false;  // the data's world frame (its gravity, if recorded, applies)
   if (P.world_frame == "auto" && !result.node_frames.empty()) {
     const FrameAlignment& f0 = result.frames[result.node_frames[0]];
     const auto& gt = sequence.frames[f0.sequence_index].T_world_camera;
     if (gt && f0.T_world_camera_final) {
       T_world_estimate = *gt * f0.T_world_camera_final->inverse();
+      in_input_frame = true;
       world_frame = fmt::format("the input's world frame, fixed by the known pose of frame {} "
                                 "(the gauge); every other pose is estimated",
                                 f0.frame_index);
     }
+  }
+  // Levelled: where the data records gravity in its world frame (and the model is in that
+  // frame), the case turns about the origin so gravity points along -z - top views, plans,
+  // walk mode and clipping assume z up.
+  const std::optional<GravityDirection> gravity =
+      in_input_frame ? read_gravity_direction(sequence) : std::nullopt;
+  if (gravity) {
+    const Eigen::Matrix3d R_level = Eigen::Quaterniond::FromTwoVectors(gravity->down_world, -Eigen::Vector3d::UnitZ())
+                  .toRotationMatrix();
+    Isometry3d level = Isometry3d::Identity();
+    level.linear() = R_level;
+    T_world_estimate = level * T_world_estimate;
+    world_frame += fmt::format(", levelled: turned {:.1f} deg about the origin so the data's "
+                               "gravity ({}) points along -z",
+                               Eigen::AngleAxisd(R_level).angle() * 180.0 / M_PI, gravity->source);
   }
   for (FrameAlignment& f : result.frames) {
     if (f.T_world_camera_svd) f.T_world_camera_svd = T_world_estimate * *f.T_world_camera_svd;
@@ -630,6 +648,8 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
     summary.measurements = rows.size();
     for (const TableRow& r : rows) summary.measurements_within += r.within_uncertainty;
     for (const TableRow& r : rows) summary.measurements_not_measured += !r.not_measured.empty();
+    for (const TableRow& r : rows)
+      summary.measurements_not_snapped += r.not_measured.empty() && !r.ends_snapped;
     LogStep s;
     s.step = "measure reference";
     s.parameters_json = json{{"reference", fs::absolute(reference).string()},

@@ -303,6 +303,40 @@ TEST_F(ReconstructCli, EightCliAndEightViewerWritersKeepEveryMarker) {
   EXPECT_EQ(verified.exit_code, 0) << verified.output;
 }
 
+// Issue 15 (evidence survives): `reconstruct --force` deleted a case's markers, measurements
+// and trajectories and restarted the hash chain. A case holding evidence is now archived whole
+// (archive/replaced-<head16>/, its log and chain intact) and logged by the new case's first
+// step; the markers are carried over, so they are still in the case.
+TEST_F(ReconstructCli, ForceKeepsTheEvidenceOfTheCaseItReplaces) {
+  const fs::path c = *dir_ / "force-evidence-case";
+  ASSERT_EQ(run_cli(reconstruct_args(c)).exit_code, 0);
+  auto r = run_cli("marker add " + q(c) + " --label 'casing 1' --at 1.92,-0.3,1.4 --no-report");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = run_cli("measure " + q(c) + " --name wall --plane 1.92,-0.3,1.4 --plane2 1.92,-0.3,1.2");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string old_log = read(c / "log.jsonl");
+  std::string last_line = old_log.substr(0, old_log.size() - 1);  // without the final newline
+  last_line = last_line.substr(last_line.rfind('\n') + 1);
+  const std::string old_head = forensics::sha256_hex(last_line);
+  r = run_cli(reconstruct_args(c) + " --force");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = run_cli("marker list " + q(c));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("1,casing 1,"), std::string::npos) << r.output;
+  const fs::path archive = c / "archive" / ("replaced-" + old_head.substr(0, 16));
+  ASSERT_TRUE(fs::is_directory(archive)) << archive;
+  EXPECT_EQ(read(archive / "log.jsonl"), old_log);  // the earlier chain, byte for byte
+  EXPECT_TRUE(fs::exists(archive / "measurements" / "measurements.json"));
+  const std::string log = read(c / "log.jsonl");
+  EXPECT_NE(log.find("archive replaced case"), std::string::npos) << log.substr(0, 400);
+  EXPECT_NE(log.find(old_head), std::string::npos);
+  r = run_cli("verify " + q(c));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+  // Deleting an archived file is caught like any other.
+  fs::remove(archive / "measurements" / "measurements.json");
+  EXPECT_EQ(run_cli("verify " + q(c)).exit_code, 1);
+}
+
 TEST_F(ReconstructCli, MarkersTrajectoriesAndMeasurementsJoinTheCaseThroughTheLog) {
   const fs::path c = *dir_ / "markers-case";
   ASSERT_EQ(run_cli(reconstruct_args(c)).exit_code, 0);

@@ -368,13 +368,15 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
         continue;
       }
       const bool ok = r.value("within_uncertainty", false);
+      const bool snapped = r.value("ends_snapped", true);  // tables before this field: as they said
       const json& m = r["measurement"];
       h += fmt::format("<tr><td>{}</td><td class=n>{}</td><td class=n>{}</td><td class=n>{}</td>"
                        "<td class=n>{}</td><td class=\"{}\">{}</td><td>{} {} &rarr; {} {}</td></tr>",
                        esc(r.value("name", "")), cm(r.value("real_m", 0.0), 2),
                        cm(r.value("model_m", 0.0), 2), mm(r.value("error_m", 0.0), 1),
                        mm(r.value("expanded_uncertainty_m", 0.0), 1), ok ? "ok" : "bad",
-                       ok ? "yes" : "NO", esc(m["a"].value("feature", "")), v3(m["a"]["snapped"]),
+                       !snapped ? "not measured: an end is not snapped" : ok ? "yes" : "NO",
+                       esc(m["a"].value("feature", "")), v3(m["a"]["snapped"]),
                        esc(m["b"].value("feature", "")), v3(m["b"]["snapped"]));
     }
     h += "</table>\n";

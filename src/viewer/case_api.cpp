@@ -74,7 +74,8 @@ json to_json(const Eigen::Vector3d& p) { return json::array({p.x(), p.y(), p.z()
 json to_json(const forensics::SnappedPoint& p) {
   return json{{"given", to_json(p.given)},
               {"snapped", to_json(p.snapped)},
-              {"feature", p.feature},
+              {"feature", forensics::to_string(p.feature)},
+              {"snapped_to_feature", forensics::is_snapped(p.feature)},
               {"standard_uncertainty_m", std::sqrt(std::max(0.0, p.covariance.trace()))},
               {"views", p.views},
               {"points", p.points},

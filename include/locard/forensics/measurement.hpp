@@ -16,7 +16,9 @@
 //     straight edge are used;
 //   - otherwise the point is in the middle of a face and keeps its position along o.
 // Without a direction the point is projected onto the plane nearest to it ("face"), or onto
-// the mesh when no plane fits ("surface"). A point farther than max_snap_distance_m from the
+// the mesh when no plane fits ("surface"). With a direction and no facing plane or edge across
+// it, the end is "not snapped": it keeps the picked place along the line (moved only onto side
+// planes, across it). A point farther than max_snap_distance_m from the
 // model is an InputError ("off the model").
 //
 // Uncertainty of a snapped point (standard, k = 1, a 3x3 covariance in the world frame):
@@ -36,6 +38,7 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace locard::forensics {
@@ -51,10 +54,31 @@ struct SnapOptions {
   double plane_inlier_m = 0.004;
 };
 
+// What fixed a snapped point's place. With a measuring direction, only a feature across the
+// line (a facing plane, an edge, a corner) fixes the end along it; otherwise the end is
+// NotSnapped and the distance is only as good as the pick - said so everywhere it is shown,
+// and never counted as measured within U in Table I.
+enum class SnapFeature {
+  Face,             // a plane facing the measuring direction (without one: the nearest plane)
+  Edge,             // where one side plane's points end along the measuring direction
+  Corner,           // where two or more side planes end
+  EdgeOutermost,    // an edge from its outermost point (too few points near it to count)
+  CornerOutermost,  // likewise for a corner
+  MeshSurface,      // no plane around, no measuring direction: projected onto the mesh
+  NotSnapped,       // nothing across the measuring line: the picked point is used as given
+};
+// "face", "edge", "corner", "edge (outermost point)", "corner (outermost point)", "surface",
+// "not snapped" (what the case files, the CSV and the viewer carry).
+std::string_view to_string(SnapFeature feature);
+// A sentence for people: "not snapped: the picked point is used as given", "edge", ...
+std::string describe(SnapFeature feature);
+// True when the model fixed the end (every feature but NotSnapped).
+constexpr bool is_snapped(SnapFeature feature) { return feature != SnapFeature::NotSnapped; }
+
 struct SnappedPoint {
   Eigen::Vector3d given = Eigen::Vector3d::Zero();
   Eigen::Vector3d snapped = Eigen::Vector3d::Zero();
-  std::string feature;  // "face", "edge", "corner", "surface"
+  SnapFeature feature = SnapFeature::NotSnapped;
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();  // standard, m^2
   std::size_t views = 0;   // views that observed the spot
   std::size_t points = 0;  // raw points used
@@ -137,7 +161,10 @@ struct TableRow {
   double model_m = 0.0;
   double error_m = 0.0;                 // model - real
   double expanded_uncertainty_m = 0.0;  // k = 2
-  bool within_uncertainty = false;      // |error| <= expanded uncertainty
+  // |error| <= expanded uncertainty, and both ends snapped: a row with an end not snapped
+  // reads the tape point back and measures nothing, so it is never "within U".
+  bool within_uncertainty = false;
+  bool ends_snapped = false;  // both ends fixed by the model (is_snapped)
   PointToPointMeasurement detail;
   std::string not_measured;  // why the model could not give it (then model_m etc. are 0)
 };

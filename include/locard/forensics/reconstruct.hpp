@@ -98,6 +98,7 @@ struct ReconstructSummary {
   std::size_t measurements = 0;
   std::size_t measurements_within = 0;
   std::size_t measurements_not_measured = 0;  // reference points the model does not cover
+  std::size_t measurements_not_snapped = 0;   // rows with an end no feature fixed (see SnapFeature)
   double seconds = 0.0;
   std::vector<std::pair<std::string, double>> stage_seconds;
 };

@@ -463,7 +463,9 @@ async function measure(a, b) {
   const text = `${fmtM(m.distance_m)} ± ${(m.expanded_uncertainty_m * 1000).toFixed(1)} mm`;
   addTag(pa.clone().add(pb).multiplyScalar(0.5), text);
   result(`distance ${fmtM(m.distance_m)}\n± ${(m.expanded_uncertainty_m * 1000).toFixed(1)} mm (k = ${m.coverage_factor}, ~95 %)\n` +
-    `a: ${m.a.feature} (${m.a.views} views)\nb: ${m.b.feature} (${m.b.views} views)`);
+    `a: ${m.a.feature} (${m.a.views} views)\nb: ${m.b.feature} (${m.b.views} views)` +
+    (m.a.snapped_to_feature && m.b.snapped_to_feature ? '' :
+      '\nwarning: an end is not snapped (no face, edge or corner across the line): the picked point is used as given, and U does not cover it'));
   state.lastMeasurement = m;
   requestRender();
   return m;
