@@ -144,6 +144,15 @@ std::string optional_string(const json& body, const char* key, std::size_t max_l
   return out;
 }
 
+// body[key] as a boolean, `absent` when missing; any other type is an InputError (-> 400): a
+// "snap": "yes" once escaped as nlohmann's type_error and a 500 with its text.
+bool optional_bool(const json& body, const char* key, bool absent) {
+  const auto it = body.find(key);
+  if (it == body.end() || it->is_null()) return absent;
+  if (!it->is_boolean()) throw InputError(fmt::format("'{}': expected true or false", key));
+  return it->get<bool>();
+}
+
 template <typename T>
 void append_bytes(std::string& out, const T* data, std::size_t count) {
   const std::size_t offset = out.size();
@@ -307,7 +316,7 @@ ApiResponse CaseApi::measure(std::string_view body) {
   const json request = parse_body(body);
   const Eigen::Vector3d a = point_field(request, "a");
   const Eigen::Vector3d b = point_field(request, "b");
-  const bool save = request.value("save", true);
+  const bool save = optional_bool(request, "save", true);
   const std::string given_name = optional_string(request, "name", 200);
   const auto start = std::chrono::steady_clock::now();
   const forensics::PointToPointMeasurement m =
@@ -355,7 +364,7 @@ ApiResponse CaseApi::add_marker(std::string_view body) {
   const auto start = std::chrono::steady_clock::now();
   const json request = parse_body(body);
   const Eigen::Vector3d position = point_field(request, "position");
-  const bool snap = request.value("snap", true);
+  const bool snap = optional_bool(request, "snap", true);
   forensics::EvidenceMarker marker;
   marker.label = optional_string(request, "label", 200);
   marker.note = optional_string(request, "note", 2000);
@@ -400,7 +409,7 @@ ApiResponse CaseApi::trajectory(std::string_view body) {
   forensics::TrajectoryInput input;
   input.points = {point_field(request, "a"), point_field(request, "b")};
   input.name = optional_string(request, "name", 200);
-  const bool save = request.value("save", true);
+  const bool save = optional_bool(request, "save", true);
 
   const fs::path relative = "trajectories/analyses.json";
   std::vector<forensics::TrajectoryAnalysis> analyses;

@@ -182,6 +182,10 @@ TEST(ViewerServer, SavesMarkersThroughTheIntegrityLog) {
   for (const std::string body :
        {"not json", R"({"label": "x"})", R"({"position": [1, 2], "label": "x"})",
         R"({"position": [1, "a", 3], "label": "x"})",
+        // Issue 14: a wrong type answered 500 with nlohmann's exception text.
+        R"({"position": [1, 2, 3], "label": "y", "snap": "yes"})",
+        R"({"position": [1, 2, 1e400], "label": "z", "snap": false})",
+        R"({"position": [1, 2, 3], "label": 7, "snap": false})",
         R"({"position": [1, 2, 3], "label": "Casing", "snap": false})"}) {
     r = test::http_request(port, "POST", "/api/markers", auth, body);
     EXPECT_EQ(r.status, 400) << body << ": " << r.body;
