@@ -26,6 +26,7 @@ struct MarkerCli {
   bool no_snap = false;
   std::string origin, x_point, xy_point, description = "case frame";
   bool no_report = false;
+  PointFrame frame = PointFrame::Case;
 };
 
 // One transaction: the markers files and their log step are saved together or not at all
@@ -47,7 +48,7 @@ int run_add(const MarkerCli& o) {
   const auto t0 = std::chrono::steady_clock::now();
   fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir, fx::CaseAccess::Change);
   fx::MarkerSet set = fx::read_markers(folder.root() / "evidence" / "markers.json");
-  const Eigen::Vector3d p = parse_case_point(o.at, set);
+  const Eigen::Vector3d p = parse_case_point(o.at, set, o.frame);
   fx::EvidenceMarker m;
   m.label = o.label;
   m.note = o.note;
@@ -61,12 +62,19 @@ int run_add(const MarkerCli& o) {
   m.expanded_uncertainty_m = 2.0 * std::sqrt(std::max(0.0, s.covariance.trace()));
   const fx::EvidenceMarker added = set.add(m);
   save(folder, set, "marker add",
-       {{"label", o.label}, {"at", o.at}, {"snap", !o.no_snap}, {"note", o.note}},
+       {{"label", o.label},
+        {"at", o.at},
+        {"at_frame", o.frame == PointFrame::Case ? "case" : "world"},
+        {"world", {p.x(), p.y(), p.z()}},
+        {"snap", !o.no_snap},
+        {"note", o.note}},
        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), !o.no_report);
   // Only now, with everything saved: a line printed before a failed save was a false receipt.
-  const Eigen::Vector3d local = set.frame.to_local(added.world);
-  fmt::print("marker {} '{}' at ({:.4f}, {:.4f}, {:.4f}) in the case frame, +- {:.4f} m\n",
-             added.number, added.label, local.x(), local.y(), local.z(),
+  const bool case_frame = o.frame == PointFrame::Case;
+  const Eigen::Vector3d shown = case_frame ? set.frame.to_local(added.world) : added.world;
+  fmt::print("marker {} '{}' at ({:.4f}, {:.4f}, {:.4f}) in the {} frame, +- {:.4f} m\n",
+             added.number, added.label, shown.x(), shown.y(), shown.z(),
+             case_frame ? "case" : "world",
              added.expanded_uncertainty_m);
   print_log_head(folder.root());
   return 0;
@@ -83,11 +91,13 @@ int run_frame(const MarkerCli& o) {
   const auto t0 = std::chrono::steady_clock::now();
   fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir, fx::CaseAccess::Change);
   fx::MarkerSet set = fx::read_markers(folder.root() / "evidence" / "markers.json");
-  set.frame = fx::CaseFrame::from_points(parse_case_point(o.origin, set),
-                                         parse_case_point(o.x_point, set),
-                                         parse_case_point(o.xy_point, set), o.description);
+  set.frame = fx::CaseFrame::from_points(parse_case_point(o.origin, set, o.frame),
+                                         parse_case_point(o.x_point, set, o.frame),
+                                         parse_case_point(o.xy_point, set, o.frame),
+                                         o.description);
   save(folder, set, "marker frame",
        {{"origin", o.origin}, {"x_point", o.x_point}, {"xy_point", o.xy_point},
+        {"points_frame", o.frame == PointFrame::Case ? "case" : "world"},
         {"description", o.description}},
        std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), !o.no_report);
   fmt::print("{}", fx::markers_csv(set));
@@ -104,7 +114,9 @@ void register_marker(CLI::App& app, GlobalOptions&) {
   CLI::App* add = cmd->add_subcommand("add", "Add a numbered, labelled marker on the model");
   add->add_option("case", o->case_dir, "Case folder")->required();
   add->add_option("--label", o->label, "Label, e.g. 'cartridge case'")->required();
-  add->add_option("--at", o->at, "x,y,z in the world frame (snapped to the surface)")->required();
+  add->add_option("--at", o->at, "x,y,z (case frame unless --frame world; snapped to the surface)")
+      ->required();
+  add_point_frame_option(add, o->frame);
   add->add_option("--note", o->note, "Free text");
   add->add_flag("--no-snap", o->no_snap, "Keep the point as given");
   add->add_flag("--no-report", o->no_report, "Do not rewrite the report");
@@ -119,6 +131,7 @@ void register_marker(CLI::App& app, GlobalOptions&) {
   frame->add_option("--xy-point", o->xy_point, "x,y,z or a marker in the xy plane")->required();
   frame->add_option("--description", o->description, "What the frame is");
   frame->add_flag("--no-report", o->no_report, "Do not rewrite the report");
+  add_point_frame_option(frame, o->frame);
   set_runner(cmd, [o, add, list, frame] {
     if (add->parsed()) return run_add(*o);
     if (list->parsed()) return run_list(*o);

@@ -37,6 +37,7 @@ struct MeasureCli {
   double radius = 0.03;
   double plane_radius = 0.05;
   bool no_report = false;
+  PointFrame frame = PointFrame::Case;
 };
 
 int run_measure(const MeasureCli& o, const GlobalOptions& global) {
@@ -49,12 +50,14 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
   std::string result;  // printed once everything is saved: not a receipt for a failed save
   // Every file a measurement may write, kept aside until its step is logged (all or nothing).
   fx::CaseChange change(folder, {"measurements/reference.json", "measurements/table.json",
-                                 "measurements/table.csv", "measurements/measurements.json"});
-  nlohmann::json params = {{"snap_radius_m", o.radius}};
+                                 "measurements/table.csv", "measurements/measurements.json",
+                                 "measurements/measurements.csv"});
+  nlohmann::json params = {{"snap_radius_m", o.radius},
+                            {"points_frame", o.frame == PointFrame::Case ? "case" : "world"}};
   if (!o.reference.empty()) {
     const auto refs = fx::read_reference_measurements(
         o.reference, [&](const std::string& n) -> std::optional<Eigen::Vector3d> {
-          if (const fx::EvidenceMarker* m = markers.find(n)) return m->world;
+          if (const fx::EvidenceMarker* m = markers.find_usable(n)) return m->world;
           return std::nullopt;
         });
     const fx::CaseModel model = fx::CaseModel::load(folder);
@@ -71,11 +74,20 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
     if (!global.quiet) {
       result += fmt::format("{:<18} {:>10} {:>10} {:>9} {:>9}\n", "object", "real cm",
                             "model cm", "error mm", "U mm");
-      for (const auto& r : rows)
+      for (const auto& r : rows) {
+        if (!r.not_measured.empty()) {
+          result += fmt::format("{:<18} {:>10.2f} not measured: {}\n", r.name, 100 * r.real_m,
+                                r.not_measured);
+          continue;
+        }
+        // A row whose end kept the picked point is never "within U" (U does not cover the pick).
+        const char* verdict = !r.ends_snapped         ? "(an end not snapped: not within U)"
+                              : r.within_uncertainty ? ""
+                                                     : "(outside U)";
         result += fmt::format("{:<18} {:>10.2f} {:>10.2f} {:>9.1f} {:>9.1f} {}\n", r.name,
                               100 * r.real_m, 100 * r.model_m, 1000 * r.error_m,
-                              1000 * r.expanded_uncertainty_m,
-                              r.within_uncertainty ? "" : "(outside U)");
+                              1000 * r.expanded_uncertainty_m, verdict);
+      }
     }
     step.step = "measure reference";
     params["reference"] = fs::absolute(o.reference).string();
@@ -84,11 +96,11 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
                     "measurements/table.csv"};
   } else {
     const fx::CaseModel model = fx::CaseModel::load(folder);
-    fs::path written;
+    std::vector<fs::path> written;
     const std::string name = o.name.empty() ? "measurement" : o.name;
     if (!o.from.empty() || !o.to.empty()) {
       if (o.from.empty() || o.to.empty()) throw InputError("--from and --to go together");
-      const auto a = parse_case_point(o.from, markers), b = parse_case_point(o.to, markers);
+      const auto a = parse_case_point(o.from, markers, o.frame), b = parse_case_point(o.to, markers, o.frame);
       const auto m = fx::measure_point_to_point(model, a, b, so);
       written = fx::append_measurement(folder, name, m);
       result += fmt::format("{}: {:.4f} m +- {:.4f} m (k=2); ends {} and {}\n", name,
@@ -103,7 +115,7 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
       params["from"] = o.from;
       params["to"] = o.to;
     } else if (!o.point.empty() && !o.plane.empty()) {
-      const auto p = parse_case_point(o.point, markers), q = parse_case_point(o.plane, markers);
+      const auto p = parse_case_point(o.point, markers, o.frame), q = parse_case_point(o.plane, markers, o.frame);
       const auto m = fx::measure_point_to_plane(model, p, q, o.plane_radius, so);
       written = fx::append_measurement(folder, name, m);
       result += fmt::format("{}: {:.4f} m +- {:.4f} m (k=2) from the plane\n", name,
@@ -112,7 +124,7 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
       params["point"] = o.point;
       params["plane"] = o.plane;
     } else if (!o.plane.empty() && !o.plane2.empty()) {
-      const auto q = parse_case_point(o.plane, markers), r = parse_case_point(o.plane2, markers);
+      const auto q = parse_case_point(o.plane, markers, o.frame), r = parse_case_point(o.plane2, markers, o.frame);
       const auto m = fx::measure_plane_angle(model, q, r, o.plane_radius, so);
       written = fx::append_measurement(folder, name, m);
       result += fmt::format("{}: {:.2f} deg +- {:.2f} deg (k=2)\n", name, m.angle_deg,
@@ -126,7 +138,7 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
     }
     params["name"] = name;
     step.step = "measure";
-    step.outputs = {written};
+    step.outputs = written;
   }
   step.parameters_json = params.dump();
   step.inputs.push_back("mesh/mesh.ply");
@@ -157,6 +169,7 @@ void register_measure(CLI::App& app, GlobalOptions& global) {
   cmd->add_option("--plane-radius", o->plane_radius, "Plane fitting radius (m)")
       ->capture_default_str();
   cmd->add_flag("--no-report", o->no_report, "Do not rewrite the report");
+  add_point_frame_option(cmd, o->frame);
   set_runner(cmd, [o, &global] { return run_measure(*o, global); });
 }
 

@@ -45,10 +45,17 @@ int run(const SimulateCliOptions& o, const GlobalOptions& global) {
       if (e.type == "impact")
         fmt::print("simulate: {} hits {} at ({:.3f}, {:.3f}, {:.3f}) at t = {:.4f} s, {:.0f} m/s\n",
                    e.body, e.other, e.position.x(), e.position.y(), e.position.z(), e.time, e.speed);
+    if (s.result.floor_inferred)
+      fmt::print("simulate: floor inferred at height {:.3f} m (bodies rest on it where the scan "
+                 "saw no floor)\n",
+                 s.result.floor_height_m);
     fmt::print("simulate: wrote {}{}\n", s.folder.string(),
                s.logged ? " (logged in the case's log.jsonl)"
                         : " (not a Locard case folder: no manifest.json, so nothing was logged)");
   }
+  // Warnings are printed even with --quiet: a body that left the model changes what the
+  // simulation can be taken to show.
+  for (const std::string& w : s.result.warnings) fmt::print(stderr, "simulate: warning: {}\n", w);
   if (s.logged) print_log_head(o.case_dir);
   return 0;
 }

@@ -27,6 +27,7 @@ struct TrajectoryCli {
   std::vector<std::string> points;
   double sigma = 0.0;
   bool no_report = false;
+  PointFrame frame = PointFrame::Case;
 };
 
 int run_trajectory(const TrajectoryCli& o) {
@@ -36,7 +37,7 @@ int run_trajectory(const TrajectoryCli& o) {
   fx::TrajectoryInput in;
   in.name = o.name;
   in.point_sigma_m = o.sigma;
-  for (const std::string& p : o.points) in.points.push_back(parse_case_point(p, markers));
+  for (const std::string& p : o.points) in.points.push_back(parse_case_point(p, markers, o.frame));
   const fx::CaseModel model = fx::CaseModel::load(folder);
   const fx::TrajectoryAnalysis a = fx::analyse_trajectory(&model, in);
   std::vector<fx::TrajectoryAnalysis> all =
@@ -45,18 +46,18 @@ int run_trajectory(const TrajectoryCli& o) {
     if (existing.name == a.name)
       throw InputError(fmt::format("a trajectory named '{}' exists already in this case", a.name));
   all.push_back(a);
-  fx::CaseChange change(folder, {"trajectories/analyses.json"});
-  {
-    AtomicFile f(folder.path("trajectories/analyses.json"), false);
-    f.stream() << fx::trajectory_analyses_json(all) << '\n';
-    f.commit();
-  }
+  fx::CaseChange change(folder, {"trajectories/analyses.json", "trajectories/analyses.csv"});
+  fx::write_trajectory_analyses(folder.path("trajectories/analyses.json"), all);
   fx::LogStep s;
   s.step = "trajectory";
-  s.parameters_json = nlohmann::json{{"name", o.name}, {"points", o.points}, {"sigma_m", o.sigma}}.dump();
+  s.parameters_json = nlohmann::json{{"name", o.name},
+                                     {"points", o.points},
+                                     {"points_frame", o.frame == PointFrame::Case ? "case" : "world"},
+                                     {"sigma_m", o.sigma}}
+                          .dump();
   s.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   s.inputs = {"mesh/mesh.ply"};
-  s.outputs = {"trajectories/analyses.json"};
+  s.outputs = {"trajectories/analyses.json", "trajectories/analyses.csv"};
   change.commit(s);
   if (!o.no_report) fx::refresh_case_report(folder);
   // Printed once everything is saved: not a receipt for a failed save.
@@ -64,10 +65,13 @@ int run_trajectory(const TrajectoryCli& o) {
              a.name, a.horizontal_angle_deg, a.vertical_angle_deg, a.cone_half_angle_deg);
   for (const auto* h : {&a.forward, &a.backward}) {
     const char* way = h == &a.forward ? "forward" : "backward";
+    const Eigen::Vector3d p =
+        o.frame == PointFrame::Case ? markers.frame.to_local(h->point) : h->point;
     if (h->hit)
-      fmt::print("{}: {} hit at ({:.4f}, {:.4f}, {:.4f}), {:.3f} m away, cone radius {:.4f} m\n",
-                 a.name, way, h->point.x(), h->point.y(), h->point.z(), h->distance_m,
-                 h->cone_radius_m);
+      fmt::print("{}: {} hit at ({:.4f}, {:.4f}, {:.4f}) in the {} frame, {:.3f} m away, cone "
+                 "radius {:.4f} m\n",
+                 a.name, way, p.x(), p.y(), p.z(), o.frame == PointFrame::Case ? "case" : "world",
+                 h->distance_m, h->cone_radius_m);
     else
       fmt::print("{}: {}: no surface met\n", a.name, way);
   }
@@ -88,6 +92,7 @@ void register_trajectory(CLI::App& app, GlobalOptions&) {
       ->required();
   cmd->add_option("--sigma", o->sigma, "Standard uncertainty of each point (m; 0: from the model)");
   cmd->add_flag("--no-report", o->no_report, "Do not rewrite the report");
+  add_point_frame_option(cmd, o->frame);
   set_runner(cmd, [o] { return run_trajectory(*o); });
 }
 

@@ -40,6 +40,7 @@ void register_all(CLI::App& app, GlobalOptions& global) {
   register_view(app, global);
   register_sign(app, global);
   register_timestamp(app, global);
+  register_evidence(app, global);
 }
 
 int run_selected(CLI::App& app) {

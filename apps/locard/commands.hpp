@@ -43,5 +43,6 @@ void register_simulate(CLI::App&, GlobalOptions&);
 void register_view(CLI::App&, GlobalOptions&);
 void register_sign(CLI::App&, GlobalOptions&);
 void register_timestamp(CLI::App&, GlobalOptions&);
+void register_evidence(CLI::App&, GlobalOptions&);
 
 }  // namespace locard::cli

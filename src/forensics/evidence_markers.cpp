@@ -3,6 +3,7 @@
 #include "forensics/csv_field.hpp"
 
 #include "forensics/json_util.hpp"
+#include "forensics/revisions_json.hpp"
 
 #include <locard/core/atomic_file.hpp>
 #include <locard/core/error.hpp>
@@ -14,6 +15,7 @@
 
 #include <algorithm>
 #include <fstream>
+#include <utility>
 
 namespace locard::forensics {
 namespace {
@@ -72,6 +74,18 @@ const EvidenceMarker* MarkerSet::find(const std::string& name) const {
   return nullptr;
 }
 
+EvidenceMarker* MarkerSet::find(const std::string& name) {
+  return const_cast<EvidenceMarker*>(std::as_const(*this).find(name));
+}
+
+const EvidenceMarker* MarkerSet::find_usable(const std::string& name) const {
+  const EvidenceMarker* m = find(name);
+  if (m && m->revisions.withdrawn())
+    throw InputError(fmt::format("marker {} '{}' was withdrawn ({}); it cannot be used", m->number,
+                                 m->label, m->revisions.status()));
+  return m;
+}
+
 bool MarkerSet::remove(int number) {
   const auto it = std::find_if(markers.begin(), markers.end(),
                                [&](const EvidenceMarker& m) { return m.number == number; });
@@ -107,6 +121,7 @@ MarkerSet read_markers(const std::filesystem::path& path) {
       e.snapped = m.value("snapped", false);
       e.expanded_uncertainty_m = m.value("expanded_uncertainty_m", 0.0);
       e.created = m.value("created", "");
+      e.revisions = get_revisions(m, fmt::format("{}: marker {}", where, e.number));
       set.markers.push_back(std::move(e));
     }
   } catch (const json::exception& e) {
@@ -118,27 +133,33 @@ MarkerSet read_markers(const std::filesystem::path& path) {
 }
 
 std::string markers_csv(const MarkerSet& set) {
-  std::string out = "number,label,x,y,z,world_x,world_y,world_z,expanded_uncertainty_m,note\n";
+  std::string out = "number,label,x,y,z,world_x,world_y,world_z,expanded_uncertainty_m,note,"
+                    "status,previous_labels\n";
   for (const EvidenceMarker& m : set.markers) {
     const Eigen::Vector3d l = set.frame.to_local(m.world);
-    out += fmt::format("{},{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{}\n", m.number,
-                       csv_field(m.label), l.x(), l.y(), l.z(), m.world.x(), m.world.y(),
-                       m.world.z(), m.expanded_uncertainty_m, csv_field(m.note));
+    out += fmt::format("{},{},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{:.4f},{},{},{}\n",
+                       m.number, csv_field(m.label), l.x(), l.y(), l.z(), m.world.x(),
+                       m.world.y(), m.world.z(), m.expanded_uncertainty_m, csv_field(m.note),
+                       csv_field(m.revisions.status()),
+                       csv_field(m.revisions.previous_names_text()));
   }
   return out;
 }
 
 void write_markers(const std::filesystem::path& path, const MarkerSet& set) {
   json markers = json::array();
-  for (const EvidenceMarker& m : set.markers)
-    markers.push_back({{"number", m.number},
-                       {"label", m.label},
-                       {"note", m.note},
-                       {"world", vec_json(m.world)},
-                       {"local", vec_json(set.frame.to_local(m.world))},
-                       {"snapped", m.snapped},
-                       {"expanded_uncertainty_m", m.expanded_uncertainty_m},
-                       {"created", m.created}});
+  for (const EvidenceMarker& m : set.markers) {
+    json one = {{"number", m.number},
+                {"label", m.label},
+                {"note", m.note},
+                {"world", vec_json(m.world)},
+                {"local", vec_json(set.frame.to_local(m.world))},
+                {"snapped", m.snapped},
+                {"expanded_uncertainty_m", m.expanded_uncertainty_m},
+                {"created", m.created}};
+    put_revisions(one, m.revisions);
+    markers.push_back(std::move(one));
+  }
   const json j = {{"frame",
                    {{"origin", vec_json(set.frame.origin)},
                     {"x_axis", vec_json(set.frame.axes.col(0))},

@@ -2,6 +2,7 @@
 
 #include "forensics/csv_field.hpp"
 #include "forensics/json_util.hpp"
+#include "forensics/measurement_files.hpp"
 #include "io/json_file.hpp"
 
 #include <locard/core/atomic_file.hpp>
@@ -576,39 +577,27 @@ nlohmann::json plane_json(const PlaneEstimate& p) {
           {"offset_sigma_m", p.offset_sigma_m}, {"normal_sigma_deg", p.normal_sigma_rad * 180.0 / M_PI}};
 }
 
-std::filesystem::path append_json(const CaseFolder& folder, const std::string& name,
-                                  nlohmann::json entry) {
-  const std::filesystem::path rel = "measurements/measurements.json";
-  const std::filesystem::path full = folder.path(rel);
-  nlohmann::json all = {{"measurements", nlohmann::json::array()}};
-  if (std::filesystem::exists(full)) {
-    std::ifstream in(full);
-    try {
-      all = nlohmann::json::parse(in);
-    } catch (const nlohmann::json::parse_error& e) {
-      throw_input_error(full, fmt::format("not valid JSON: {}", e.what()));
-    }
-  }
+std::vector<std::filesystem::path> append_json(const CaseFolder& folder,
+                                               const std::string& name, nlohmann::json entry) {
   if (name.empty()) throw InputError("a measurement needs a name");
+  nlohmann::json all = read_measurements_file(folder.path(kMeasurementsJson));
   entry["name"] = name;
   entry["created"] = utc_now_iso8601();
   all["measurements"].push_back(entry);
-  AtomicFile f(full, false);
-  f.stream() << all.dump(1) << '\n';
-  f.commit();
-  return rel;
+  write_measurements_files(folder.path(kMeasurementsJson), all);
+  return {kMeasurementsJson, kMeasurementsCsv};
 }
 
 }  // namespace
 
 std::string measurement_json(const PointToPointMeasurement& m) { return p2p_json(m).dump(); }
 
-std::filesystem::path append_measurement(const CaseFolder& folder, const std::string& name,
+std::vector<std::filesystem::path> append_measurement(const CaseFolder& folder, const std::string& name,
                                          const PointToPointMeasurement& m) {
   return append_json(folder, name, p2p_json(m));
 }
 
-std::filesystem::path append_measurement(const CaseFolder& folder, const std::string& name,
+std::vector<std::filesystem::path> append_measurement(const CaseFolder& folder, const std::string& name,
                                          const PointToPlaneMeasurement& m) {
   return append_json(folder, name,
                      {{"kind", "point_to_plane"},
@@ -619,7 +608,7 @@ std::filesystem::path append_measurement(const CaseFolder& folder, const std::st
                       {"expanded_uncertainty_m", m.expanded_uncertainty_m}});
 }
 
-std::filesystem::path append_measurement(const CaseFolder& folder, const std::string& name,
+std::vector<std::filesystem::path> append_measurement(const CaseFolder& folder, const std::string& name,
                                          const PlaneAngleMeasurement& m) {
   return append_json(folder, name,
                      {{"kind", "plane_angle"},

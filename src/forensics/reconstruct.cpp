@@ -9,6 +9,7 @@
 #include <locard/core/error.hpp>
 #include <locard/forensics/case_folder.hpp>
 #include <locard/forensics/case_model.hpp>
+#include <locard/forensics/floor_level.hpp>
 #include <locard/forensics/integrity.hpp>
 #include <locard/forensics/measurement.hpp>
 #include <locard/forensics/pose_covariance.hpp>
@@ -18,6 +19,7 @@
 #include <locard/io/gravity.hpp>
 #include <locard/io/rgbd_sequence.hpp>
 #include <locard/io/trajectory_io.hpp>
+#include <locard/preprocess/depth_to_points.hpp>
 #include <locard/surface/fusion.hpp>
 #include <locard/surface/mesh_cleanup.hpp>
 
@@ -32,6 +34,36 @@
 #include <sstream>
 
 namespace locard::forensics {
+namespace {
+
+// Points of up to `max_views` trusted views (evenly spread, every 8th pixel) in the frame
+// T_world_estimate puts the model in, and the cameras' mean up (image -y) there: what
+// find_floor_level needs to level a case whose data records no gravity.
+std::pair<std::vector<Eigen::Vector3d>, Eigen::Vector3d> floor_evidence(
+    const RgbdSequence& sequence, const AlignmentResult& result,
+    const Isometry3d& T_world_estimate, std::size_t max_views) {
+  std::vector<const FrameAlignment*> trusted;
+  for (const FrameAlignment& f : result.frames)
+    if (f.trusted() && f.T_world_camera_final) trusted.push_back(&f);
+  std::vector<Eigen::Vector3d> points;
+  Eigen::Vector3d up = Eigen::Vector3d::Zero();
+  const std::size_t n = std::min(max_views, trusted.size());
+  DepthToPointsOptions o;
+  o.with_color = false;
+  o.stride = 8;
+  o.max_depth_m = 5.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    const FrameAlignment& f = *trusted[k * trusted.size() / n];
+    const Isometry3d T = T_world_estimate * *f.T_world_camera_final;
+    up += T.linear() * -Eigen::Vector3d::UnitY();
+    const PointCloud cloud = depth_to_points(sequence.load_frame(f.sequence_index), o, T);
+    for (const Eigen::Vector3f& p : cloud.positions) points.push_back(p.cast<double>());
+  }
+  return {std::move(points), up};
+}
+
+}  // namespace
+
 namespace {
 
 namespace fs = std::filesystem;
@@ -417,6 +449,31 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
     world_frame += fmt::format(", levelled: turned {:.1f} deg about the origin so the data's "
                                "gravity ({}) points along -z",
                                Eigen::AngleAxisd(R_level).angle() * 180.0 / M_PI, gravity->source);
+  }
+  // No recorded gravity: level from the floor. A frame that is the data's own and already level
+  // within kKeepLevelDeg (a simulated scan, a survey) is kept as it is; a first camera's frame,
+  // or a data frame that is not level, is turned so the floor's normal is +z.
+  if (!gravity) {
+    constexpr double kKeepLevelDeg = 5.0;
+    const auto [points, up] = floor_evidence(sequence, result, T_world_estimate, 12);
+    const std::optional<FloorLevel> floor = find_floor_level(points, up);
+    if (!floor) {
+      world_frame += ", not levelled: the data records no gravity and no floor plane was found";
+      note("not levelled: the data records no gravity and no floor was found in the views; "
+           "top views and walk mode assume z up");
+    } else if (in_input_frame && floor->tilt_deg <= kKeepLevelDeg) {
+      world_frame += fmt::format(", level as given: the floor ({} points) lies within {:.2f} deg "
+                                 "of the xy plane",
+                                 floor->inliers, floor->tilt_deg);
+    } else {
+      Isometry3d level = Isometry3d::Identity();
+      level.linear() = floor->R_level;
+      T_world_estimate = level * T_world_estimate;
+      world_frame += fmt::format(", levelled from the floor: turned {:.1f} deg about the origin so "
+                                 "the floor plane ({} of {} sampled points, rms {:.1f} mm) is "
+                                 "horizontal, z up",
+                                 floor->tilt_deg, floor->inliers, floor->points, 1000 * floor->rms_m);
+    }
   }
   for (FrameAlignment& f : result.frames) {
     if (f.T_world_camera_svd) f.T_world_camera_svd = T_world_estimate * *f.T_world_camera_svd;

@@ -364,6 +364,71 @@ TEST_F(ReconstructCli, MarkersTrajectoriesAndMeasurementsJoinTheCaseThroughTheLo
   EXPECT_EQ(r.exit_code, 0) << r.output;
 }
 
+// Issue 15 items 3 and 6: after `marker frame`, points on the command line are case-frame
+// coordinates (what `marker list` prints; --frame world for world ones); markers,
+// measurements and trajectories are renamed and withdrawn as logged steps that erase nothing,
+// a withdrawn marker is refused as a point, and the report and the CSVs say what happened.
+TEST_F(ReconstructCli, EvidenceIsRenamedAndWithdrawnAndPointsAreReadInTheCaseFrame) {
+  const fs::path c = *dir_ / "edits-case";
+  ASSERT_EQ(run_cli(reconstruct_args(c)).exit_code, 0);
+  auto r = run_cli("marker add " + q(c) + " --label hole --at 1.92,-0.3,1.4 --no-report");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // A room-corner frame: origin (-1.92, -2, 0), x along +x, y along +y (a pure shift).
+  r = run_cli("marker frame " + q(c) + " --origin -1.92,-2,0 --x-point 1.92,-2,0 "
+              "--xy-point -1.92,2,0 --description corner --no-report");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  // World (1.92, -0.1, 1.3) is (3.84, 1.9, 1.3) in the corner frame.
+  r = run_cli("marker add " + q(c) + " --label casing --at 3.84,1.9,1.3 --no-report");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("in the case frame"), std::string::npos) << r.output;
+  r = run_cli("marker add " + q(c) + " --label 'hole 3' --at 1.92,0.0,1.3 --frame world --no-report");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json markers = nlohmann::json::parse(read(c / "evidence" / "markers.json"));
+  ASSERT_EQ(markers["markers"].size(), 3u);
+  EXPECT_NEAR(markers["markers"][1]["world"][1].get<double>(), -0.1, 0.02);
+  EXPECT_NEAR(markers["markers"][1]["world"][2].get<double>(), 1.3, 0.02);
+  EXPECT_NEAR(markers["markers"][1]["local"][0].get<double>(), 3.84, 0.03);
+  EXPECT_NEAR(markers["markers"][2]["world"][1].get<double>(), 0.0, 0.02);
+  EXPECT_NEAR(markers["markers"][2]["local"][1].get<double>(), 2.0, 0.02);
+  // Read in the case frame, a world coordinate lies off the model: refused.
+  r = run_cli("marker add " + q(c) + " --label stray --at 1.92,-0.3,1.4 --no-report");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  r = run_cli("measure " + q(c) + " --name span --from hole --to 3.84,1.9,1.3 --no-report");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+
+  r = run_cli("evidence rename " + q(c) + " marker hole 'entry hole' --no-report");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("marker 1 renamed 'entry hole' (was 'hole')"), std::string::npos) << r.output;
+  r = run_cli("evidence withdraw " + q(c) + " marker 2 --reason 'a bottle cap, not a casing' --no-report");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = run_cli("trajectory " + q(c) + " --name shot --point 1 --point 2 --no-report");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("withdrawn"), std::string::npos) << r.output;
+  r = run_cli("evidence rename " + q(c) + " measurement span 'hole to cap'");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = run_cli("evidence withdraw " + q(c) + " trajectory nothing --reason x");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  r = run_cli("evidence rename " + q(c) + " photo 1 x");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+
+  r = run_cli("evidence list " + q(c));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("# markers\n"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("1,entry hole,"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(": a bottle cap, not a casing\","), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("# trajectories\n"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("hole to cap,point_to_point,"), std::string::npos) << r.output;
+  r = run_cli("evidence list " + q(c) + " measurement");
+  EXPECT_EQ(r.output.find("# markers"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find(",current,span\n"), std::string::npos) << r.output;
+  const std::string html = read(c / "report" / "report.html");
+  EXPECT_NE(html.find("(was hole)"), std::string::npos);
+  EXPECT_NE(html.find("class=\"withdrawn\""), std::string::npos);
+  EXPECT_NE(html.find("a bottle cap, not a casing"), std::string::npos);
+  r = run_cli("verify " + q(c));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+}
+
 // Issue 14 (laundering): delete cloud/registered.ply, plant a file, run a routine command: the
 // manifest used to be re-hashed from the disk and verify then passed. Now the command verifies
 // first and refuses (exit 5) naming both, the manifest stays as it was, and verify names them.

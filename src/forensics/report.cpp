@@ -61,6 +61,28 @@ std::string esc(const std::string& s) {
   return out;
 }
 
+// A recorded object's revisions (revisions.hpp) in the report: a withdrawn row is struck
+// through and grey but kept, an earlier name is shown beside the current one.
+std::string revision_class(const json& object) {
+  return object.contains("withdrawn") ? " class=\"withdrawn\"" : "";
+}
+
+std::string revised_name(const json& object, const char* key) {
+  std::string out = esc(object.value(key, ""));
+  const auto it = object.find("previous_names");
+  if (it == object.end() || !it->is_array() || it->empty()) return out;
+  std::string was;
+  for (const json& n : *it)
+    if (n.is_string()) was += (was.empty() ? "" : ", ") + esc(n.get<std::string>());
+  return out + " <span class=\"note\">(was " + was + ")</span>";
+}
+
+std::string revision_status(const json& object) {
+  const auto it = object.find("withdrawn");
+  if (it == object.end() || !it->is_object()) return "current";
+  return "withdrawn " + esc(it->value("at", "")) + ": " + esc(it->value("reason", ""));
+}
+
 std::string base64(const std::vector<std::uint8_t>& data) {
   static constexpr char k[] = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
   std::string out;
@@ -230,7 +252,8 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
        "table{border-collapse:collapse;font-size:12px;margin:6px 0}"
        "td,th{border:1px solid #bbb;padding:2px 6px;text-align:left;vertical-align:top}"
        "th{background:#eee}td.n{text-align:right;font-variant-numeric:tabular-nums}"
-       ".ok{color:#060}.bad{color:#a00;font-weight:bold}.hash{font-family:monospace;font-size:10px}"
+       ".ok{color:#060}.bad{color:#a00;font-weight:bold}tr.withdrawn td{color:#888}"
+       "tr.withdrawn td:not(:last-child){text-decoration:line-through}.hash{font-family:monospace;font-size:10px}"
        ".views img{width:48%;margin:0.5%;border:1px solid #ccc}figure{margin:8px 0}"
        "figcaption{font-size:12px;color:#555}.note{font-size:12px;color:#555}"
        "@media print{h2{page-break-after:avoid}table{page-break-inside:auto}}\n</style></head><body>\n";
@@ -327,6 +350,7 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
     }
     if (!analyses.is_null())
       for (const json& a : analyses["analyses"]) {
+        if (a.contains("withdrawn")) continue;  // listed below as withdrawn, not drawn
         const json& b = a["backward"];
         const json& f = a["forward"];
         const Vector3d p0 = b.value("hit", false) ? json_vec3(b["point"], "report") : json_vec3(a["points"].front(), "report");
@@ -338,6 +362,7 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
       }
     if (!markers.is_null())
       for (const json& m : markers["markers"]) {
+        if (m.contains("withdrawn")) continue;
         const auto px = top.to_pixel(json_vec3(m["world"], "report"));
         svg += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"7\" fill=\"#ffd400\" "
                            "stroke=\"#000\"/><text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"9\" "
@@ -382,17 +407,18 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
     h += "</table>\n";
   }
   if (const json adhoc = read_json_or_null(root / "measurements" / "measurements.json"); !adhoc.is_null()) {
-    h += "<h3>Other measurements</h3><table><tr><th>name</th><th>kind</th><th>value</th><th>U "
-         "(k=2)</th></tr>";
+    h += "<h3>Other measurements</h3><table id=\"other-measurements\"><tr><th>name</th>"
+         "<th>kind</th><th>value</th><th>U (k=2)</th><th>status</th></tr>";
     for (const json& m : adhoc["measurements"]) {
       const std::string kind = m.value("kind", "");
       const bool angle = kind == "plane_angle";
-      h += fmt::format("<tr><td>{}</td><td>{}</td><td class=n>{}</td><td class=n>{}</td></tr>",
-                       esc(m.value("name", "")), esc(kind),
+      h += fmt::format("<tr{}><td>{}</td><td>{}</td><td class=n>{}</td><td class=n>{}</td><td>{}</td></tr>",
+                       revision_class(m), revised_name(m, "name"), esc(kind),
                        angle ? fmt::format("{:.2f}&deg;", m.value("angle_deg", 0.0))
                              : fmt::format("{:.4f} m", m.value("distance_m", 0.0)),
                        angle ? fmt::format("{:.2f}&deg;", m.value("expanded_uncertainty_deg", 0.0))
-                             : fmt::format("{} mm", mm(m.value("expanded_uncertainty_m", 0.0))));
+                             : fmt::format("{} mm", mm(m.value("expanded_uncertainty_m", 0.0))),
+                       revision_status(m));
     }
     h += "</table>\n";
   }
@@ -405,14 +431,15 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
     h += "<p class=\"note\">Frame: " + esc(markers["frame"].value("description", "")) +
          ", origin " + v3(markers["frame"]["origin"]) + "</p>";
     h += "<table id=\"evidence-table\"><tr><th>#</th><th>label</th><th>x</th><th>y</th><th>z</th>"
-         "<th>U (mm)</th><th>note</th></tr>";
+         "<th>U (mm)</th><th>note</th><th>status</th></tr>";
     for (const json& m : markers["markers"]) {
       const json& l = m["local"];
-      h += fmt::format("<tr><td>{}</td><td>{}</td><td class=n>{:.3f}</td><td class=n>{:.3f}</td>"
-                       "<td class=n>{:.3f}</td><td class=n>{}</td><td>{}</td></tr>",
-                       m.value("number", 0), esc(m.value("label", "")), l[0].get<double>(),
-                       l[1].get<double>(), l[2].get<double>(),
-                       mm(m.value("expanded_uncertainty_m", 0.0)), esc(m.value("note", "")));
+      h += fmt::format("<tr{}><td>{}</td><td>{}</td><td class=n>{:.3f}</td><td class=n>{:.3f}</td>"
+                       "<td class=n>{:.3f}</td><td class=n>{}</td><td>{}</td><td>{}</td></tr>",
+                       revision_class(m), m.value("number", 0), revised_name(m, "label"),
+                       l[0].get<double>(), l[1].get<double>(), l[2].get<double>(),
+                       mm(m.value("expanded_uncertainty_m", 0.0)), esc(m.value("note", "")),
+                       revision_status(m));
     }
     h += "</table>\n";
   }
@@ -424,18 +451,20 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
   } else {
     h += "<table id=\"trajectory-table\"><tr><th>name</th><th>points</th><th>horizontal "
          "angle</th><th>vertical angle</th><th>cone half-angle (k=2)</th><th>forward hit</th>"
-         "<th>backward hit</th></tr>";
+         "<th>backward hit</th><th>status</th></tr>";
     auto hit = [](const json& j) {
       if (!j.value("hit", false)) return std::string("none");
       return fmt::format("{} at {:.3f} m, cone radius {} mm", v3(j["point"]),
                          j.value("distance_m", 0.0), mm(j.value("cone_radius_m", 0.0)));
     };
     for (const json& a : analyses["analyses"])
-      h += fmt::format("<tr><td>{}</td><td class=n>{}</td><td class=n>{:.2f}&deg;</td><td "
-                       "class=n>{:.2f}&deg;</td><td class=n>{:.2f}&deg;</td><td>{}</td><td>{}</td></tr>",
-                       esc(a.value("name", "")), a["points"].size(),
+      h += fmt::format("<tr{}><td>{}</td><td class=n>{}</td><td class=n>{:.2f}&deg;</td><td "
+                       "class=n>{:.2f}&deg;</td><td class=n>{:.2f}&deg;</td><td>{}</td><td>{}</td>"
+                       "<td>{}</td></tr>",
+                       revision_class(a), revised_name(a, "name"), a["points"].size(),
                        a.value("horizontal_angle_deg", 0.0), a.value("vertical_angle_deg", 0.0),
-                       a.value("cone_half_angle_deg", 0.0), hit(a["forward"]), hit(a["backward"]));
+                       a.value("cone_half_angle_deg", 0.0), hit(a["forward"]), hit(a["backward"]),
+                       revision_status(a));
     h += "</table>\n";
   }
 

@@ -1,6 +1,10 @@
 #include <locard/forensics/trajectory_analysis.hpp>
 
+#include "forensics/csv_field.hpp"
 #include "forensics/json_util.hpp"
+#include "forensics/revisions_json.hpp"
+
+#include <locard/core/atomic_file.hpp>
 
 #include <locard/core/error.hpp>
 #include <locard/forensics/measurement.hpp>
@@ -155,7 +159,7 @@ std::string trajectory_analyses_json(const std::vector<TrajectoryAnalysis>& anal
   for (const TrajectoryAnalysis& a : analyses) {
     json pts = json::array();
     for (const auto& p : a.points) pts.push_back(vec_json(p));
-    all.push_back({{"name", a.name},
+    json one = {{"name", a.name},
                    {"points", pts},
                    {"origin", vec_json(a.origin)},
                    {"direction", vec_json(a.direction)},
@@ -166,7 +170,9 @@ std::string trajectory_analyses_json(const std::vector<TrajectoryAnalysis>& anal
                    {"angular_sigma_deg", a.angular_sigma_deg},
                    {"cone_half_angle_deg", a.cone_half_angle_deg},
                    {"forward", hit_json(a.forward)},
-                   {"backward", hit_json(a.backward)}});
+                   {"backward", hit_json(a.backward)}};
+    put_revisions(one, a.revisions);
+    all.push_back(std::move(one));
   }
   return json{{"convention", "horizontal angle: azimuth from +x, counter-clockwise seen from "
                              "above; vertical angle: elevation above the horizontal; direction "
@@ -196,12 +202,39 @@ std::vector<TrajectoryAnalysis> read_trajectory_analyses(const std::filesystem::
       t.cone_half_angle_deg = a.value("cone_half_angle_deg", 0.0);
       t.forward = hit_from(a.at("forward"), where);
       t.backward = hit_from(a.at("backward"), where);
+      t.revisions = get_revisions(a, where);
       out.push_back(std::move(t));
     }
   } catch (const json::exception& e) {
     throw_input_error(path, fmt::format("malformed trajectory analyses: {}", e.what()));
   }
   return out;
+}
+
+std::string trajectory_analyses_csv(const std::vector<TrajectoryAnalysis>& analyses) {
+  std::string out = "name,points,horizontal_angle_deg,vertical_angle_deg,cone_half_angle_deg,"
+                    "fit_rms_m,forward_hit_m,backward_hit_m,status,previous_names\n";
+  auto hit = [](const SurfaceHit& h) { return h.hit ? fmt::format("{:.4f}", h.distance_m) : ""; };
+  for (const TrajectoryAnalysis& a : analyses)
+    out += fmt::format("{},{},{:.3f},{:.3f},{:.3f},{:.5f},{},{},{},{}\n", csv_field(a.name),
+                       a.points.size(), a.horizontal_angle_deg, a.vertical_angle_deg,
+                       a.cone_half_angle_deg, a.fit_rms_m, hit(a.forward), hit(a.backward),
+                       csv_field(a.revisions.status()),
+                       csv_field(a.revisions.previous_names_text()));
+  return out;
+}
+
+void write_trajectory_analyses(const std::filesystem::path& json_path,
+                               const std::vector<TrajectoryAnalysis>& analyses) {
+  std::filesystem::create_directories(json_path.parent_path());
+  {
+    AtomicFile f(json_path, false);
+    f.stream() << trajectory_analyses_json(analyses) << '\n';
+    f.commit();
+  }
+  AtomicFile f(std::filesystem::path(json_path).replace_extension(".csv"), false);
+  f.stream() << trajectory_analyses_csv(analyses);
+  f.commit();
 }
 
 }  // namespace locard::forensics

@@ -72,6 +72,13 @@ std::string events_json(const Scenario& s, const SimulationResult& result,
                    {"air_density", s.air_density},
                    {"steps", result.steps}};
   j["mesh"] = {{"path", mesh_path}, {"sha256", mesh_sha256}, {"triangles", result.mesh_triangles}};
+  // Where the scan has holes, bodies rest on an inferred plane, not on measured surface.
+  if (result.floor_inferred)
+    j["inferred_support"] = {{"kind", "floor plane"},
+                             {"height_m", result.floor_height_m},
+                             {"note", "inferred from the mesh's lowest level surface; it holds "
+                                      "bodies where the scan saw no floor"}};
+  j["warnings"] = result.warnings;
   j["frame"] = "case world frame (z up for the simulated bedroom), metres, seconds";
   json bodies = json::array();
   for (const auto& p : s.projectiles)

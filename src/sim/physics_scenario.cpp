@@ -216,6 +216,8 @@ ProjectileSpec read_projectile(const json& j, std::size_t index, const fs::path&
     for (const TrajectoryLine& line : read_trajectory_analyses(analyses)) {
       known += (known.empty() ? "" : ", ") + line.name;
       if (line.name != name) continue;
+      if (line.withdrawn)
+        r.fail(r.place("trajectory") + ": analysis '" + name + "' was withdrawn from the case");
       p.muzzle = line.a;
       along = line.b - line.a;
       found = true;
@@ -466,6 +468,7 @@ std::vector<TrajectoryLine> read_trajectory_analyses(const fs::path& path) {
     }
     if ((line.b - line.a).norm() < 1e-6)
       throw_input_error(path, where + " \"" + line.name + "\": the first two points coincide");
+    line.withdrawn = a.contains("withdrawn");
     lines.push_back(line);
   }
   return lines;

@@ -5,6 +5,8 @@
 #include <locard/sim/counter_rng.hpp>
 #include <locard/sim/physics_ballistics.hpp>
 
+#include <fmt/format.h>
+
 #include <btBulletCollisionCommon.h>
 #include <btBulletDynamicsCommon.h>
 #include <BulletCollision/NarrowPhaseCollision/btRaycastCallback.h>
@@ -35,6 +37,14 @@ constexpr double kRestWindow = 0.25;             // s quiet before a rest is rep
 constexpr double kRagdollRestLinear = 0.05;      // m/s
 constexpr double kRagdollRestAngular = 0.5;      // rad/s
 constexpr double kSurfaceSkip = 0.001;           // m: hits this close to a muzzle are ignored
+constexpr double kFloorBin = 0.02;          // m: height bins of the floor search
+constexpr double kFloorLevelDeg = 20.0;     // up-facing triangles within this of level
+constexpr double kFloorShareOfPeak = 0.25;  // the lowest bin with this share of the peak area
+constexpr double kFloorCell = 0.1;          // m: grid of the inferred floor patches
+constexpr double kFloorBand = 0.05;         // m: level triangles this near the floor are floor
+constexpr std::size_t kMaxFloorCells = 250'000;
+constexpr double kLeftModelMargin = 0.5;    // m beyond the mesh's bounds: left the model
+constexpr int kInferredFloorIndex = -2;     // user index of the plane (the mesh is -1)
 constexpr double kExitSkip = 0.05;  // m: back faces ignored near a muzzle on a surface
 
 btVector3 bt(const Vec& v) { return {v.x(), v.y(), v.z()}; }
@@ -72,6 +82,7 @@ struct Owner {
   std::size_t anchor = 0;  // body whose pose stands for the owner (ragdoll: pelvis)
   double quiet_since = -1.0;
   bool rest_reported = false;
+  bool left_model = false;
   std::size_t avatar = std::numeric_limits<std::size_t>::max();
 };
 
@@ -205,6 +216,7 @@ class World {
     world_.getSolverInfo().m_numIterations = 20;
     owners_.push_back({"mesh", "mesh", "the scene mesh", {}, 0});
     add_mesh(scene);
+    add_inferred_floor(scene);
     for (std::size_t i = 0; i < s_.objects.size(); ++i) add_object(s_.objects[i], i);
     for (std::size_t i = 0; i < s_.people.size(); ++i) {
       if (s_.people[i].kind == PersonKind::Ragdoll) add_ragdoll(s_.people[i], i);
@@ -219,6 +231,7 @@ class World {
       world_.removeConstraint(it->get());
     for (auto it = bodies_.rbegin(); it != bodies_.rend(); ++it) world_.removeRigidBody(it->rigid.get());
     if (mesh_body_) world_.removeRigidBody(mesh_body_.get());
+    if (floor_body_) world_.removeRigidBody(floor_body_.get());
   }
   World(const World&) = delete;
   World& operator=(const World&) = delete;
@@ -243,6 +256,7 @@ class World {
       for (auto& p : projectiles_) advance(p, t0, t1);
       detect_contacts(n, t1);
       detect_rest(t1);
+      detect_left_model(t1);
       while (next_frame < frames &&
              t1 >= static_cast<double>(next_frame) / s_.fps - 1e-9) {
         sample(t1);
@@ -298,6 +312,66 @@ class World {
     mesh_body_ = std::make_unique<btRigidBody>(info);
     mesh_body_->setUserIndex(-1);
     world_.addRigidBody(mesh_body_.get());
+  }
+
+  // Floor patches over the holes of the floor found in the mesh (see physics_world.hpp).
+  void add_inferred_floor(const TriangleMesh& scene) {
+    if (s_.gravity.norm() < 1e-9) return;  // no down, no floor
+    const Vec up = -s_.gravity.normalized();
+    const std::optional<double> floor = infer_floor_height(scene, up);
+    if (!floor) return;
+    for (const auto& v : scene.vertices) bounds_.extend(v.cast<double>());
+    floor_mesh_ = inferred_floor_patches(scene, up, *floor);
+    if (floor_mesh_.triangles.empty()) return;  // the scan saw the whole floor
+    result_.floor_inferred = true;
+    result_.floor_height_m = *floor;
+    for (const auto& v : floor_mesh_.vertices)
+      for (int k = 0; k < 3; ++k) floor_vertices_.push_back(static_cast<btScalar>(v[k]));
+    for (const auto& t : floor_mesh_.triangles)
+      for (int k = 0; k < 3; ++k) floor_indices_.push_back(static_cast<int>(t[k]));
+    btIndexedMesh part;
+    part.m_numTriangles = static_cast<int>(floor_mesh_.triangles.size());
+    part.m_triangleIndexBase = reinterpret_cast<const unsigned char*>(floor_indices_.data());
+    part.m_triangleIndexStride = 3 * sizeof(int);
+    part.m_numVertices = static_cast<int>(floor_mesh_.vertices.size());
+    part.m_vertexBase = reinterpret_cast<const unsigned char*>(floor_vertices_.data());
+    part.m_vertexStride = 3 * sizeof(btScalar);
+    part.m_indexType = PHY_INTEGER;
+    part.m_vertexType = PHY_DOUBLE;
+    floor_array_ = std::make_unique<btTriangleIndexVertexArray>();
+    floor_array_->addIndexedMesh(part, PHY_INTEGER);
+    floor_shape_ = std::make_unique<btBvhTriangleMeshShape>(floor_array_.get(), true);
+    btRigidBody::btRigidBodyConstructionInfo info(0.0, nullptr, floor_shape_.get());
+    info.m_friction = 0.7;
+    info.m_restitution = 0.3;
+    floor_body_ = std::make_unique<btRigidBody>(info);
+    floor_body_->setUserIndex(kInferredFloorIndex);
+    floor_owner_ = owners_.size();
+    owners_.push_back({"inferred floor", "support", "the floor inferred from the mesh", {}, 0});
+    world_.addRigidBody(floor_body_.get());
+  }
+
+  void detect_left_model(double t) {
+    if (bounds_.isEmpty()) return;
+    Eigen::AlignedBox3d inside = bounds_;
+    inside.min().array() -= kLeftModelMargin;
+    inside.max().array() += kLeftModelMargin;
+    for (Owner& o : owners_) {
+      if ((o.kind != "object" && o.kind != "ragdoll") || o.left_model) continue;
+      const Vec p = eig(bodies_[o.anchor].rigid->getWorldTransform().getOrigin());
+      if (inside.contains(p)) continue;
+      o.left_model = true;
+      SimEvent e;
+      e.time = t;
+      e.type = "left_model";
+      e.body = o.name;
+      e.position = p;
+      result_.events.push_back(e);
+      result_.warnings.push_back(fmt::format(
+          "{} left the model at t = {:.3f} s, at {}: it went where the scan saw nothing, and what "
+          "it did after that is not supported by the scene",
+          o.name, t, fmt_vec(p)));
+    }
   }
 
   std::size_t new_owner(const std::string& name, const std::string& kind, const std::string& where) {
@@ -747,6 +821,7 @@ class World {
 
   std::size_t owner_of(const btCollisionObject* object) const {
     const int index = object->getUserIndex();
+    if (index == kInferredFloorIndex) return floor_owner_;
     return index < 0 ? 0 : bodies_[static_cast<std::size_t>(index)].owner;
   }
   std::string part_of(const btCollisionObject* object) const {
@@ -784,7 +859,11 @@ class World {
       const Vec normal_b_to_a = eig(cp.m_normalWorldOnB);
       const double approach =
           -(velocity_before(a, point) - velocity_before(b, point)).dot(normal_b_to_a);
-      if (oa == 0 || (ob != 0 && ob < oa)) {
+      // The scene - the mesh or the inferred floor - always second.
+      const auto is_scene = [this](std::size_t owner) {
+        return owner == 0 || (floor_owner_ != 0 && owner == floor_owner_);
+      };
+      if (is_scene(oa) || (!is_scene(ob) && ob < oa)) {
         std::swap(a, b);
         std::swap(oa, ob);
       }
@@ -855,7 +934,7 @@ class World {
 
   void finals(double end) {
     for (const Owner& o : owners_) {
-      if (o.kind == "mesh") continue;
+      if (o.kind == "mesh" || o.kind == "support") continue;
       const btTransform& pose = bodies_[o.anchor].rigid->getWorldTransform();
       FinalState f;
       f.body = o.name;
@@ -890,6 +969,14 @@ class World {
   std::unique_ptr<btTriangleIndexVertexArray> mesh_array_;
   std::unique_ptr<btBvhTriangleMeshShape> mesh_shape_;
   std::unique_ptr<btRigidBody> mesh_body_;
+  TriangleMesh floor_mesh_;  // inferred floor patches over the floor's holes
+  std::vector<btScalar> floor_vertices_;
+  std::vector<int> floor_indices_;
+  std::unique_ptr<btTriangleIndexVertexArray> floor_array_;
+  std::unique_ptr<btBvhTriangleMeshShape> floor_shape_;
+  std::unique_ptr<btRigidBody> floor_body_;
+  std::size_t floor_owner_ = 0;
+  Eigen::AlignedBox3d bounds_;  // of the mesh's vertices; empty without a floor
 
   std::vector<Owner> owners_;
   std::vector<Body> bodies_;
@@ -900,6 +987,133 @@ class World {
 };
 
 }  // namespace
+
+std::optional<double> infer_floor_height(const TriangleMesh& scene, const Eigen::Vector3d& up) {
+  const double level = std::cos(kFloorLevelDeg * kDeg);
+  struct Bin {
+    double area = 0.0, area_height = 0.0;
+  };
+  std::map<long, Bin> bins;  // ordered by height
+  for (const auto& tri : scene.triangles) {
+    if (tri[0] >= scene.vertices.size() || tri[1] >= scene.vertices.size() ||
+        tri[2] >= scene.vertices.size())
+      continue;
+    const Vec a = scene.vertices[tri[0]].cast<double>(), b = scene.vertices[tri[1]].cast<double>(),
+              c = scene.vertices[tri[2]].cast<double>();
+    const Vec n = (b - a).cross(c - a);
+    const double twice_area = n.norm();
+    if (!(twice_area > 1e-12) || n.dot(up) < level * twice_area) continue;  // not up-facing
+    const double h = up.dot((a + b + c) / 3.0);
+    if (!std::isfinite(h)) continue;
+    Bin& bin = bins[std::lround(std::floor(h / kFloorBin))];
+    bin.area += 0.5 * twice_area;
+    bin.area_height += 0.5 * twice_area * h;
+  }
+  double peak = 0.0;
+  for (const auto& [index, bin] : bins) peak = std::max(peak, bin.area);
+  if (peak <= 0.0) return std::nullopt;
+  for (const auto& [index, bin] : bins) {
+    if (bin.area < kFloorShareOfPeak * peak) continue;
+    // The area-weighted height of this bin and its neighbours: a floor at a bin's edge
+    // spreads over two bins.
+    double area = 0.0, area_height = 0.0;
+    for (long k = index - 1; k <= index + 1; ++k)
+      if (const auto it = bins.find(k); it != bins.end()) {
+        area += it->second.area;
+        area_height += it->second.area_height;
+      }
+    return area_height / area;
+  }
+  return std::nullopt;
+}
+
+TriangleMesh inferred_floor_patches(const TriangleMesh& scene, const Eigen::Vector3d& up_in,
+                                    double floor_height) {
+  const Vec up = up_in.normalized();
+  const Vec e1 = up.unitOrthogonal(), e2 = up.cross(e1);
+  Eigen::AlignedBox2d extent;
+  for (const auto& v : scene.vertices) extent.extend(Eigen::Vector2d(e1.dot(v.cast<double>()), e2.dot(v.cast<double>())));
+  TriangleMesh patches;
+  if (extent.isEmpty()) return patches;
+  double cell = kFloorCell;
+  const auto cells_along = [&](int axis) {  // covering the extent, not beyond it by a cell
+    return std::max<std::size_t>(1, static_cast<std::size_t>(std::ceil(extent.sizes()[axis] / cell - 1e-6)));
+  };
+  while (cells_along(0) * cells_along(1) > kMaxFloorCells) cell *= 2.0;
+  const std::size_t nu = cells_along(0), nv = cells_along(1);
+  std::vector<char> covered(nu * nv, 0);
+  const double level = std::cos(kFloorLevelDeg * kDeg);
+  const auto centre = [&](std::size_t i, std::size_t j) -> Eigen::Vector2d {
+    return extent.min() + Eigen::Vector2d((static_cast<double>(i) + 0.5) * cell,
+                                          (static_cast<double>(j) + 0.5) * cell);
+  };
+  for (const auto& tri : scene.triangles) {
+    if (tri[0] >= scene.vertices.size() || tri[1] >= scene.vertices.size() ||
+        tri[2] >= scene.vertices.size())
+      continue;
+    Vec p[3];
+    Eigen::Vector2d q[3];
+    bool near_floor = true;
+    for (int k = 0; k < 3; ++k) {
+      p[k] = scene.vertices[tri[k]].cast<double>();
+      q[k] = {e1.dot(p[k]), e2.dot(p[k])};
+      near_floor = near_floor && std::abs(up.dot(p[k]) - floor_height) <= kFloorBand;
+    }
+    const Vec n = (p[1] - p[0]).cross(p[2] - p[0]);
+    if (!near_floor || !(n.norm() > 1e-12) || n.dot(up) < level * n.norm()) continue;
+    // Cells whose centre the triangle covers (seen from above), and the cells of its corners.
+    const double area = (q[1] - q[0]).x() * (q[2] - q[0]).y() - (q[1] - q[0]).y() * (q[2] - q[0]).x();
+    Eigen::AlignedBox2d box;
+    for (const auto& c : q) box.extend(c);
+    // Evaluated now: an `auto` Eigen expression would refer to temporaries gone by then.
+    const Eigen::Vector2d lo_cell = (box.min() - extent.min()) / cell;
+    const Eigen::Vector2d hi_cell = (box.max() - extent.min()) / cell;
+    const Eigen::Vector2<long> lo(static_cast<long>(std::floor(lo_cell.x())), static_cast<long>(std::floor(lo_cell.y())));
+    const Eigen::Vector2<long> hi(static_cast<long>(std::floor(hi_cell.x())), static_cast<long>(std::floor(hi_cell.y())));
+    for (long i = std::max(0L, lo.x()); i <= std::min<long>(static_cast<long>(nu) - 1, hi.x()); ++i)
+      for (long j = std::max(0L, lo.y()); j <= std::min<long>(static_cast<long>(nv) - 1, hi.y()); ++j) {
+        const Eigen::Vector2d c = centre(static_cast<std::size_t>(i), static_cast<std::size_t>(j));
+        bool inside = std::abs(area) > 1e-12;
+        for (int k = 0; k < 3 && inside; ++k) {
+          const Eigen::Vector2d a = q[k], b = q[(k + 1) % 3];
+          const double side = (b - a).x() * (c - a).y() - (b - a).y() * (c - a).x();
+          inside = side * area >= 0.0;
+        }
+        const bool corner_here = (lo.x() == hi.x() && lo.y() == hi.y());
+        if (inside || corner_here) covered[static_cast<std::size_t>(i) * nv + static_cast<std::size_t>(j)] = 1;
+      }
+  }
+  // Uncovered cells merged greedily into rectangles, one quad each: fewer internal edges for a
+  // body to catch on (Bullet's boxes jitter on a fine grid of triangles).
+  std::vector<char> used(covered);
+  const auto corner = [&](std::size_t i, std::size_t j) -> Eigen::Vector3f {
+    const Eigen::Vector2d c =
+        extent.min() + Eigen::Vector2d(static_cast<double>(i) * cell, static_cast<double>(j) * cell);
+    return (c.x() * e1 + c.y() * e2 + floor_height * up).cast<float>();
+  };
+  for (std::size_t j = 0; j < nv; ++j)
+    for (std::size_t i = 0; i < nu; ++i) {
+      if (used[i * nv + j]) continue;
+      std::size_t i1 = i + 1;
+      while (i1 < nu && !used[i1 * nv + j]) ++i1;
+      std::size_t j1 = j + 1;
+      const auto row_free = [&](std::size_t row) {
+        for (std::size_t k = i; k < i1; ++k)
+          if (used[k * nv + row]) return false;
+        return true;
+      };
+      while (j1 < nv && row_free(j1)) ++j1;
+      for (std::size_t k = i; k < i1; ++k)
+        for (std::size_t m = j; m < j1; ++m) used[k * nv + m] = 1;
+      const auto base = static_cast<std::uint32_t>(patches.vertices.size());
+      patches.vertices.insert(patches.vertices.end(),
+                              {corner(i, j), corner(i1, j), corner(i1, j1), corner(i, j1)});
+      // Counter-clockwise seen from above (e1 x e2 = up).
+      patches.triangles.push_back({base, base + 1, base + 2});
+      patches.triangles.push_back({base, base + 2, base + 3});
+    }
+  return patches;
+}
 
 SimulationResult simulate(const Scenario& scenario, const TriangleMesh& scene) {
   World world(scenario, scene);

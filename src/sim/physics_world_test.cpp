@@ -263,5 +263,91 @@ TEST(PhysicsWorld, SameScenarioAndSeedGiveIdenticalEvents) {
   EXPECT_NE(a, c) << "the seed changes the spread and the ragdoll's wobble";
 }
 
+// Issue 15 item 5: a scanned floor has holes (the disc around a tripod is never seen). A
+// 4 x 4 m floor of 0.2 m tiles at z = 0 without its central 1.2 x 1.2 m, a 0.6 x 0.6 m table
+// top at z = 0.72 and a wall: the floor is inferred at z = 0 and patched over the hole, and a
+// box dropped over the hole rests on the patch instead of falling for ever.
+TriangleMesh floor_with_a_hole() {
+  TriangleMesh m;
+  auto quad = [&m](Eigen::Vector3f a, Eigen::Vector3f b, Eigen::Vector3f c, Eigen::Vector3f d) {
+    const auto i = static_cast<std::uint32_t>(m.vertices.size());
+    m.vertices.insert(m.vertices.end(), {a, b, c, d});
+    m.triangles.push_back({i, i + 1, i + 2});
+    m.triangles.push_back({i, i + 2, i + 3});
+  };
+  for (int ix = 0; ix < 20; ++ix)
+    for (int iy = 0; iy < 20; ++iy) {
+      const float x = -2.0f + 0.2f * static_cast<float>(ix), y = -2.0f + 0.2f * static_cast<float>(iy);
+      if (x >= -0.6f - 1e-4f && x + 0.2f <= 0.6f + 1e-4f && y >= -0.6f - 1e-4f && y + 0.2f <= 0.6f + 1e-4f)
+        continue;  // the hole
+      quad({x, y, 0}, {x + 0.2f, y, 0}, {x + 0.2f, y + 0.2f, 0}, {x, y + 0.2f, 0});
+    }
+  quad({1.0f, 1.0f, 0.72f}, {1.6f, 1.0f, 0.72f}, {1.6f, 1.6f, 0.72f}, {1.0f, 1.6f, 0.72f});
+  quad({-2, 2, 0}, {2, 2, 0}, {2, 2, 2.5f}, {-2, 2, 2.5f});  // a wall: not level, not counted
+  return m;
+}
+
+TEST(PhysicsWorld, TheFloorIsInferredAndHoldsABodyOverAHoleInTheScan) {
+  const TriangleMesh mesh = floor_with_a_hole();
+  const auto floor = infer_floor_height(mesh, Vector3d::UnitZ());
+  ASSERT_TRUE(floor.has_value());
+  EXPECT_NEAR(*floor, 0.0, 1e-6);
+  // With "up" along -z no triangle faces up: no floor is inferred.
+  EXPECT_FALSE(infer_floor_height(mesh, -Vector3d::UnitZ()).has_value());
+
+  const Scenario s = test::scenario_from(R"({
+    "name": "hole", "duration": 2.0,
+    "objects": [{"name": "box", "shape": "box", "size": [0.3, 0.2, 0.1],
+                 "position": [0.0, 0.0, 0.8], "mass": 1.0}]})");
+  const SimulationResult r = simulate(s, mesh);
+  EXPECT_TRUE(r.floor_inferred);
+  EXPECT_NEAR(r.floor_height_m, 0.0, 1e-6);
+  // The patches cover the hole (1.44 m^2, merged into rectangles) and nothing the tiles cover.
+  const TriangleMesh patches = inferred_floor_patches(mesh, Vector3d::UnitZ(), 0.0);
+  double patched = 0.0;
+  for (const auto& t : patches.triangles) {
+    const Eigen::Vector3f c = (patches.vertices[t[0]] + patches.vertices[t[1]] + patches.vertices[t[2]]) / 3.0f;
+    EXPECT_LT(c.head<2>().cwiseAbs().maxCoeff(), 0.6f + 0.1f) << "a patch outside the hole";
+    patched += 0.5 * (patches.vertices[t[1]] - patches.vertices[t[0]]).cross(patches.vertices[t[2]] - patches.vertices[t[0]]).norm();
+  }
+  EXPECT_NEAR(patched, 1.44, 0.3);
+  const SimEvent* rest = find_event(r, "rest", "box");
+  ASSERT_NE(rest, nullptr) << "the box fell through the hole";
+  EXPECT_NEAR(box_bottom(rest->position, rest->rotation, {0.3, 0.2, 0.1}), 0.0, 0.005);
+  const SimEvent* contact = find_event(r, "contact", "box");
+  ASSERT_NE(contact, nullptr);
+  EXPECT_EQ(contact->other, "inferred floor");
+  EXPECT_EQ(find_event(r, "left_model", "box"), nullptr);
+  EXPECT_TRUE(r.warnings.empty());
+  const std::string json = events_json(s, r, "mesh.ply", "0");
+  EXPECT_THAT(json, HasSubstr("\"inferred_support\""));
+
+  // Where the scanned floor exists, the box lands on it, not on the plane below.
+  const Scenario beside = test::scenario_from(R"({
+    "name": "beside", "duration": 2.0,
+    "objects": [{"name": "box", "shape": "box", "size": [0.3, 0.2, 0.1],
+                 "position": [-1.3, -1.3, 0.5], "mass": 1.0}]})");
+  const SimulationResult b = simulate(beside, mesh);
+  const SimEvent* on_mesh = find_event(b, "contact", "box");
+  ASSERT_NE(on_mesh, nullptr);
+  EXPECT_EQ(on_mesh->other, "mesh");
+  const SimEvent* rest_on_mesh = find_event(b, "rest", "box");
+  ASSERT_NE(rest_on_mesh, nullptr);
+  EXPECT_NEAR(box_bottom(rest_on_mesh->position, rest_on_mesh->rotation, {0.3, 0.2, 0.1}), 0.0, 0.005);
+}
+
+TEST(PhysicsWorld, ABodyThatLeavesTheModelIsAnEventAndAWarning) {
+  const Scenario s = test::scenario_from(R"({
+    "name": "away", "duration": 2.0,
+    "objects": [{"name": "ball", "shape": "sphere", "radius": 0.05, "position": [1.5, 0.0, 0.3],
+                 "velocity": [8, 0, 2], "mass": 0.2}]})");
+  const SimulationResult r = simulate(s, floor_with_a_hole());
+  const SimEvent* left = find_event(r, "left_model", "ball");
+  ASSERT_NE(left, nullptr);
+  EXPECT_GT(left->position.x(), 2.5 - 1e-9);
+  ASSERT_EQ(r.warnings.size(), 1u);
+  EXPECT_THAT(r.warnings[0], AllOf(HasSubstr("ball left the model"), HasSubstr("t = ")));
+}
+
 }  // namespace
 }  // namespace locard::sim

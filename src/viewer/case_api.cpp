@@ -6,6 +6,7 @@
 
 #include <locard/core/atomic_file.hpp>
 #include <locard/core/error.hpp>
+#include <locard/forensics/case_edits.hpp>
 #include <locard/forensics/case_folder.hpp>
 #include <locard/forensics/case_model.hpp>
 #include <locard/forensics/evidence_markers.hpp>
@@ -82,14 +83,22 @@ json to_json(const forensics::SnappedPoint& p) {
               {"planes", p.planes}};
 }
 
+// Revisions as the case files hold them: absent for an untouched object.
+void put_revisions(json& out, const forensics::Revisions& r) {
+  if (!r.previous_names.empty()) out["previous_names"] = r.previous_names;
+  if (r.withdrawn()) out["withdrawn"] = {{"reason", r.withdrawn_reason}, {"at", r.withdrawn_at}};
+}
+
 json to_json(const forensics::EvidenceMarker& m) {
-  return json{{"number", m.number},
-              {"label", m.label},
-              {"note", m.note},
-              {"world", to_json(m.world)},
-              {"snapped", m.snapped},
-              {"expanded_uncertainty_m", m.expanded_uncertainty_m},
-              {"created", m.created}};
+  json out{{"number", m.number},
+           {"label", m.label},
+           {"note", m.note},
+           {"world", to_json(m.world)},
+           {"snapped", m.snapped},
+           {"expanded_uncertainty_m", m.expanded_uncertainty_m},
+           {"created", m.created}};
+  put_revisions(out, m.revisions);
+  return out;
 }
 
 json to_json(const forensics::SurfaceHit& h) {
@@ -105,7 +114,7 @@ json to_json(const forensics::SurfaceHit& h) {
 json to_json(const forensics::TrajectoryAnalysis& t) {
   json points = json::array();
   for (const Eigen::Vector3d& p : t.points) points.push_back(to_json(p));
-  return json{{"name", t.name},
+  json out{{"name", t.name},
               {"points", points},
               {"origin", to_json(t.origin)},
               {"direction", to_json(t.direction)},
@@ -117,6 +126,8 @@ json to_json(const forensics::TrajectoryAnalysis& t) {
               {"cone_half_angle_deg", t.cone_half_angle_deg},
               {"forward", to_json(t.forward)},
               {"backward", to_json(t.backward)}};
+  put_revisions(out, t.revisions);
+  return out;
 }
 
 // Expanded (k) uncertainty of a point's position, as `locard marker add` reports it: k times
@@ -230,6 +241,10 @@ ApiResponse CaseApi::handle(std::string_view method, std::string_view path, std:
     if (get && path == "/api/markers") return markers();
     if (post && path == "/api/markers") return add_marker(body);
     if (post && path == "/api/trajectory") return trajectory(body);
+    if (get && path == "/api/measurements") return measurements();
+    if (get && path == "/api/trajectories") return trajectories();
+    if (post && path == "/api/evidence/rename") return edit(body, false);
+    if (post && path == "/api/evidence/withdraw") return edit(body, true);
     return error_response(404, fmt::format("no such API call: {} {}", method, path));
   } catch (const forensics::CaseNotIntact& e) {
     // The case does not verify: nothing is added to it (the finding is the answer).
@@ -330,7 +345,8 @@ ApiResponse CaseApi::measure(std::string_view body) {
   if (!save) return json_response(out);
   // Saved like `locard measure`: appended to measurements/measurements.json, one log step.
   forensics::CaseFolder folder = impl_->folder(forensics::CaseAccess::Change);
-  forensics::CaseChange change(folder, {"measurements/measurements.json"});
+  forensics::CaseChange change(folder,
+                               {"measurements/measurements.json", "measurements/measurements.csv"});
   const std::string name =
       given_name.empty() ? fmt::format("viewer {}", utc_now_iso8601()) : given_name;
   forensics::LogStep step;
@@ -341,7 +357,7 @@ ApiResponse CaseApi::measure(std::string_view body) {
                               {"a", to_json(a)},
                               {"b", to_json(b)}}
                              .dump();
-  step.outputs = {forensics::append_measurement(folder, name, m)};
+  step.outputs = forensics::append_measurement(folder, name, m);
   step.duration_s =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   out["name"] = name;
@@ -357,7 +373,15 @@ ApiResponse CaseApi::markers() {
     j["local"] = to_json(set.frame.to_local(m.world));
     list.push_back(std::move(j));
   }
-  return json_response(json{{"frame", set.frame.description}, {"markers", std::move(list)}});
+  const forensics::CaseFrame& f = set.frame;
+  return json_response(json{{"frame", f.description},
+                            {"case_frame",
+                             {{"description", f.description},
+                              {"origin", to_json(f.origin)},
+                              {"x_axis", to_json(f.axes.col(0))},
+                              {"y_axis", to_json(f.axes.col(1))},
+                              {"z_axis", to_json(f.axes.col(2))}}},
+                            {"markers", std::move(list)}});
 }
 
 ApiResponse CaseApi::add_marker(std::string_view body) {
@@ -421,17 +445,13 @@ ApiResponse CaseApi::trajectory(std::string_view body) {
   json out = to_json(analysis);
   if (save) {
     forensics::CaseFolder folder = impl_->folder(forensics::CaseAccess::Change);
-    forensics::CaseChange change(folder, {relative});
+    forensics::CaseChange change(folder, {relative, "trajectories/analyses.csv"});
     // Read again under the lock: another writer may have added one since.
     analyses = is_regular(impl_->root / relative)
                    ? forensics::read_trajectory_analyses(impl_->root / relative)
                    : std::vector<forensics::TrajectoryAnalysis>{};
     analyses.push_back(analysis);
-    {
-      AtomicFile file(folder.path(relative), false);
-      file.stream() << forensics::trajectory_analyses_json(analyses);
-      file.commit();
-    }
+    forensics::write_trajectory_analyses(folder.path(relative), analyses);
     forensics::LogStep step;
     step.step = "trajectory";
     step.parameters_json = json{{"source", "viewer"},
@@ -442,12 +462,47 @@ ApiResponse CaseApi::trajectory(std::string_view body) {
                                 {"min_gap_m", input.min_gap_m},
                                 {"max_range_m", input.max_range_m}}
                                .dump();
-    step.outputs = {relative};
+    step.outputs = {relative, "trajectories/analyses.csv"};
     step.duration_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     out["log_seq"] = change.commit(step);
   }
   return json_response(out, save ? 201 : 200);
+}
+
+ApiResponse CaseApi::measurements() {
+  const fs::path path = impl_->root / "measurements/measurements.json";
+  if (!is_regular(path)) return json_response(json{{"measurements", json::array()}});
+  auto all = read_json_file(path);
+  if (!all || !all->is_object() || !all->contains("measurements"))
+    return error_response(500, "measurements/measurements.json is not a measurements file");
+  return json_response(*all);
+}
+
+ApiResponse CaseApi::trajectories() {
+  json list = json::array();
+  for (const forensics::TrajectoryAnalysis& t :
+       forensics::read_trajectory_analyses(impl_->root / "trajectories/analyses.json"))
+    list.push_back(to_json(t));
+  return json_response(json{{"analyses", std::move(list)}});
+}
+
+ApiResponse CaseApi::edit(std::string_view body, bool withdraw) {
+  const json request = parse_body(body);
+  forensics::CaseEdit e;
+  const std::string kind = optional_string(request, "kind", 20);
+  const auto parsed = forensics::parse_case_object_kind(kind);
+  if (!parsed) throw InputError("'kind': expected \"marker\", \"measurement\" or \"trajectory\"");
+  e.object = *parsed;
+  e.which = optional_string(request, "which", 200);
+  if (e.which.empty()) throw InputError("'which': say which one (a marker's number or label, a name, or #N)");
+  e.edit = withdraw ? forensics::CaseEditKind::Withdraw : forensics::CaseEditKind::Rename;
+  e.new_name = optional_string(request, "name", 200);
+  e.reason = optional_string(request, "reason", 2000);
+  e.source = "viewer";
+  forensics::CaseFolder folder = impl_->folder(forensics::CaseAccess::Change);
+  const forensics::CaseEditResult r = forensics::apply_case_edit(folder, e);
+  return json_response(json{{"summary", r.summary}, {"log_seq", r.log_seq}}, 201);
 }
 
 void CaseApi::refresh_report() {

@@ -7,9 +7,13 @@
 //   {"frame": {"origin": [x,y,z], "x_axis": [...], "y_axis": [...], "z_axis": [...],
 //              "description": "..."},
 //    "markers": [{"number", "label", "note", "world": [x,y,z], "local": [x,y,z],
-//                 "snapped": bool, "expanded_uncertainty_m", "created"}]}
+//                 "snapped": bool, "expanded_uncertainty_m", "created",
+//                 "previous_names": [...], "withdrawn": {"reason", "at"}}]}
 // and evidence/markers.csv with number,label,x,y,z (local frame),world_x,world_y,world_z,
-// uncertainty_m,note.
+// uncertainty_m,note,status,previous_labels. A withdrawn marker stays in both files, its
+// number and label reserved (see revisions.hpp).
+
+#include <locard/forensics/revisions.hpp>
 
 #include <Eigen/Core>
 
@@ -42,6 +46,7 @@ struct EvidenceMarker {
   bool snapped = false;  // moved onto the surface by snap_point
   double expanded_uncertainty_m = 0.0;
   std::string created;   // ISO 8601 UTC
+  Revisions revisions;   // earlier labels, withdrawal
 };
 
 struct MarkerSet {
@@ -51,8 +56,12 @@ struct MarkerSet {
   // Appends a marker numbered one past the highest so far. Throws InputError for an empty or
   // duplicate label.
   const EvidenceMarker& add(EvidenceMarker marker);
-  // By number ("3", "marker:3") or by label.
+  // By number ("3", "marker:3") or by label (current or withdrawn).
   const EvidenceMarker* find(const std::string& name_or_number) const;
+  EvidenceMarker* find(const std::string& name_or_number);
+  // A marker a command may use as a point: InputError when it was withdrawn (naming the
+  // reason); nullptr when there is none.
+  const EvidenceMarker* find_usable(const std::string& name_or_number) const;
   // Removes by number; false when there is none.
   bool remove(int number);
 };

@@ -179,14 +179,17 @@ std::vector<TableRow> compare_with_reference(const CaseModel& model,
 void write_measurement_table(const CaseFolder& folder, const std::vector<TableRow>& rows);
 
 // Ad-hoc measurements (CLI `locard measure`, the viewer) are appended to
-// measurements/measurements.json ({"measurements": [{"name", "kind", ...}]}); returns the
-// case-relative path written. The caller appends the log step.
-std::filesystem::path append_measurement(const CaseFolder& folder, const std::string& name,
-                                         const PointToPointMeasurement& m);
-std::filesystem::path append_measurement(const CaseFolder& folder, const std::string& name,
-                                         const PointToPlaneMeasurement& m);
-std::filesystem::path append_measurement(const CaseFolder& folder, const std::string& name,
-                                         const PlaneAngleMeasurement& m);
+// measurements/measurements.json ({"measurements": [{"name", "kind", ...}]}) and the CSV
+// beside it; returns the case-relative paths written. The caller appends the log step.
+std::vector<std::filesystem::path> append_measurement(const CaseFolder& folder,
+                                                      const std::string& name,
+                                                      const PointToPointMeasurement& m);
+std::vector<std::filesystem::path> append_measurement(const CaseFolder& folder,
+                                                      const std::string& name,
+                                                      const PointToPlaneMeasurement& m);
+std::vector<std::filesystem::path> append_measurement(const CaseFolder& folder,
+                                                      const std::string& name,
+                                                      const PlaneAngleMeasurement& m);
 // One measurement as JSON text (what append_measurement stores).
 std::string measurement_json(const PointToPointMeasurement& m);
 

@@ -19,6 +19,7 @@
 // radius is distance * tan(half-angle) plus the expanded point uncertainty.
 
 #include <locard/forensics/case_model.hpp>
+#include <locard/forensics/revisions.hpp>
 
 #include <Eigen/Core>
 
@@ -59,6 +60,7 @@ struct TrajectoryAnalysis {
   double cone_half_angle_deg = 0.0;  // expanded
   SurfaceHit forward;   // beyond the last point
   SurfaceHit backward;  // before the first point
+  Revisions revisions;  // earlier names, withdrawal
 };
 
 // Throws InputError for fewer than two points, coincident points or non-finite input.
@@ -69,5 +71,10 @@ TrajectoryAnalysis analyse_trajectory(const TriangleMesh& mesh, const Trajectory
 // trajectories/analyses.json: {"analyses": [...]} as text, and back (for the report/viewer).
 std::string trajectory_analyses_json(const std::vector<TrajectoryAnalysis>& analyses);
 std::vector<TrajectoryAnalysis> read_trajectory_analyses(const std::filesystem::path& path);
+// One row per analysis (spreadsheet-safe): name, angles, cone, hits, status, previous names.
+std::string trajectory_analyses_csv(const std::vector<TrajectoryAnalysis>& analyses);
+// Writes analyses.json and analyses.csv beside it (atomic each); the caller logs both.
+void write_trajectory_analyses(const std::filesystem::path& json_path,
+                               const std::vector<TrajectoryAnalysis>& analyses);
 
 }  // namespace locard::forensics

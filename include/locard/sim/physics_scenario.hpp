@@ -109,6 +109,7 @@ struct TrajectoryLine {
   std::string name;
   Eigen::Vector3d a = Eigen::Vector3d::Zero();  // first point on the path
   Eigen::Vector3d b = Eigen::Vector3d::Zero();  // second point, further along
+  bool withdrawn = false;  // withdrawn in the case (`locard evidence withdraw`): not to be used
 };
 
 // Reads CASE_DIR/trajectories/analyses.json: an array of analyses, or an object holding one

@@ -13,6 +13,17 @@
 // bodies created in scenario order, and seeded randomness only (projectile spread, a ragdoll's
 // small initial limb wobble). The same scenario, mesh and seed give identical results.
 //
+// Inferred support: a scanned mesh has holes - the floor around a tripod is never seen - and a
+// body that falls through one would fall for ever. The floor is inferred from the mesh (the
+// lowest height, along -gravity, holding at least a quarter as much level, up-facing surface
+// as the most covered height: 2 cm bins, triangles within 20 degrees of level, the area-weighted
+// height of that bin and its neighbours) and patched at that height wherever the scan left it
+// open: a 10 cm grid over the mesh's extent, a square patch on every cell whose centre no
+// floor triangle (level, within 5 cm of the floor) covers. Bodies over a hole rest on a patch;
+// a contact with one names "inferred floor" as the other body, and the result says the floor
+// was inferred. A body whose centre leaves the model (0.5 m beyond the mesh's bounds) is a
+// "left_model" event and a warning.
+//
 // Before the first step every body is checked against the mesh: a body penetrating a surface
 // by more than 5 mm, or whose centre lies behind the mesh's surfaces (most rays from it hit
 // back faces first), or a muzzle behind the surfaces, throws InputError naming the body.
@@ -25,6 +36,7 @@
 #include <Eigen/Geometry>
 
 #include <cstddef>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,7 +47,8 @@ namespace locard::sim {
 struct SimEvent {
   double time = 0.0;
   // "launch" (projectile fired), "impact" (projectile hit), "no_impact" (projectile still in
-  // flight at the end), "contact" (two bodies start touching), "rest" (a body settles).
+  // flight at the end), "contact" (two bodies start touching), "rest" (a body settles),
+  // "left_model" (a body's centre left the model's bounds).
   std::string type;
   std::string body;   // scenario name of the body
   std::string part;   // ragdoll part, when a ragdoll is involved ("head", ...)
@@ -90,7 +103,19 @@ struct SimulationResult {
   std::vector<double> frame_times;  // shared sample times of the non-projectile tracks
   std::size_t steps = 0;
   std::size_t mesh_triangles = 0;   // triangles in the collision mesh (degenerate ones dropped)
+  // The inferred floor (see the header comment): true when patches were needed; its height
+  // along -gravity.
+  bool floor_inferred = false;
+  double floor_height_m = 0.0;
+  std::vector<std::string> warnings;  // bodies that left the model, ...
 };
+
+// The floor height along `up` (unit) found in the mesh as above; nullopt without level,
+// up-facing triangles.
+std::optional<double> infer_floor_height(const TriangleMesh& scene, const Eigen::Vector3d& up);
+// The patches over the floor's holes at `floor_height` along `up` (empty: no hole).
+TriangleMesh inferred_floor_patches(const TriangleMesh& scene, const Eigen::Vector3d& up,
+                                    double floor_height);
 
 // Runs the scenario. `scene` may have no triangles (free space). Throws InputError (naming the
 // scenario file and the body) when a body starts inside the mesh or two bodies overlap.

@@ -1,7 +1,9 @@
 #pragma once
 // The viewer's JSON API over one case folder, apart from HTTP so it can be tested directly.
 // Coordinates in every request and answer are in the case's world frame (z up, metres; see
-// docs/case-format.md), not the y-up frame of the glTF files the browser draws.
+// docs/case-format.md), not the y-up frame of the glTF files the browser draws; markers also
+// carry "local", their case-frame coordinates, and GET /api/markers the frame itself, so the
+// viewer shows what `marker list` and the report print.
 //
 //   GET  /api/case        case.json plus what the viewer can show: mesh, cloud, inferred
 //                         triangles, segments, simulations, counts
@@ -11,11 +13,17 @@
 //                         the surface, distance and its uncertainty (the forensics library's
 //                         measurement); saved to measurements/measurements.json through the
 //                         integrity log unless "save": false
-//   GET  /api/markers     the case's evidence markers
+//   GET  /api/markers     the case's evidence markers and case frame (withdrawn ones too,
+//                         with "withdrawn": {"reason", "at"}; "previous_names" when renamed)
 //   POST /api/markers     {"position": [x,y,z], "label": "...", "note": "..."} -> the marker,
 //                         numbered and saved through the case's integrity log
 //   POST /api/trajectory  {"a": [x,y,z], "b": [x,y,z]} -> line, angles, surface hits of its
 //                         extension, error cone; saved through the integrity log
+//   GET  /api/measurements  the saved measurements (CLI and viewer), with their revisions
+//   GET  /api/trajectories  the saved trajectory analyses, with their revisions
+//   POST /api/evidence/rename    {"kind": "marker"|"measurement"|"trajectory", "which": "...",
+//                                "name": "..."} -> renamed as a logged step (case_edits.hpp)
+//   POST /api/evidence/withdraw  {"kind", "which", "reason"} -> withdrawn as a logged step
 // Bad requests (malformed JSON, a missing or non-finite coordinate) get 400 with
 // {"error": "..."}; a case without what a request needs gets 404.
 
@@ -64,6 +72,9 @@ class CaseApi {
   ApiResponse markers();
   ApiResponse add_marker(std::string_view body);
   ApiResponse trajectory(std::string_view body);
+  ApiResponse measurements();
+  ApiResponse trajectories();
+  ApiResponse edit(std::string_view body, bool withdraw);
 
   // Rewrites report/report.html (and the PDF) with the options recorded in case.json and logs a
   // "report" step: what the CLI does last after adding to a case. Throws like

@@ -84,7 +84,20 @@ const state = {
   caseInfo: null, meshTriangles: 0, inferredTriangles: 0, points: 0, markers: [],
   lastMeasurement: null, lastTrajectory: null, fps: 0, frames: 0, loaded: false, error: null,
   simulation: null, lodTriangles: 0, lodLevel: -1,
+  frame: null, savedMeasurements: [], savedTrajectories: [],
 };
+
+// --- the case frame (`locard marker frame`): coordinates are shown as the CLI and report print
+// them; the API speaks world coordinates, the frame turns them into the case's.
+function toCaseFrame(p) {
+  const f = state.frame;
+  const a = Array.isArray(p) ? p : [p.x, p.y, p.z];
+  if (!f) return a;
+  const d = [a[0] - f.origin[0], a[1] - f.origin[1], a[2] - f.origin[2]];
+  const dot = (u) => u[0] * d[0] + u[1] * d[1] + u[2] * d[2];
+  return [dot(f.x_axis), dot(f.y_axis), dot(f.z_axis)];
+}
+const fmtPoint = (p) => `(${toCaseFrame(p).map((v) => v.toFixed(3)).join(', ')})`;
 
 // --- mesh ------------------------------------------------------------------------------------
 const gltfLoader = new GLTFLoader();
@@ -467,6 +480,7 @@ async function measure(a, b) {
     (m.a.snapped_to_feature && m.b.snapped_to_feature ? '' :
       '\nwarning: an end is not snapped (no face, edge or corner across the line): the picked point is used as given, and U does not cover it'));
   state.lastMeasurement = m;
+  loadSaved().catch((err) => status(`measurements: ${err.message}`));
   requestRender();
   return m;
 }
@@ -496,6 +510,7 @@ async function trajectory(a, b) {
   result(`${t.name}\nhorizontal ${t.horizontal_angle_deg.toFixed(2)}°  vertical ${t.vertical_angle_deg.toFixed(2)}°\n` +
     `cone half-angle ${t.cone_half_angle_deg.toFixed(2)}° (k = 2)\nforward hit: ${hit(t.forward)}\nbackward hit: ${hit(t.backward)}`);
   state.lastTrajectory = t;
+  loadSaved().catch((err) => status(`trajectories: ${err.message}`));
   requestRender();
   return t;
 }
@@ -516,19 +531,61 @@ function numberSprite(number) {
   return sprite;
 }
 
+// One entry of the marker, measurement or trajectory lists: its text, what became of it
+// (earlier names, withdrawal), and rename / withdraw buttons while it stands.
+function listEntry(kind, which, text, object) {
+  const li = document.createElement('li');
+  const span = document.createElement('span');
+  span.textContent = text + (object.previous_names ? ` (was ${object.previous_names.join(', ')})` : '');
+  li.appendChild(span);
+  if (object.withdrawn) {
+    li.classList.add('withdrawn');
+    li.title = `withdrawn ${object.withdrawn.at}: ${object.withdrawn.reason}`;
+    const why = document.createElement('span');
+    why.className = 'why';
+    why.textContent = ` withdrawn: ${object.withdrawn.reason}`;
+    li.appendChild(why);
+    return li;
+  }
+  for (const [action, label] of [['rename', 'rename'], ['withdraw', 'withdraw']]) {
+    const b = document.createElement('button');
+    b.type = 'button'; b.className = `edit-${action}`; b.textContent = label;
+    b.addEventListener('click', () => {
+      const answer = window.prompt(action === 'rename' ? 'New name' : 'Why is it withdrawn? (kept with it and logged)');
+      if (answer) editObject(kind, which, action, answer).catch((err) => { result(`error: ${err.message}`); status(err.message); });
+    });
+    li.appendChild(b);
+  }
+  return li;
+}
+
+// Renames or withdraws a marker, measurement or trajectory: a logged step in the case, as
+// `locard evidence rename|withdraw` does; the lists are read again from the case.
+async function editObject(kind, which, action, text) {
+  const body = action === 'rename' ? { kind, which: String(which), name: text } : { kind, which: String(which), reason: text };
+  const r = await api(`/api/evidence/${action}`, body);
+  result(`${r.summary} (log line ${r.log_seq})`);
+  await Promise.all([loadMarkers(), loadSaved()]);
+  return r;
+}
+
 async function loadMarkers() {
   const data = await api('/api/markers');
-  state.markers = data.markers;
+  state.frame = data.case_frame || null;
+  state.markers = data.markers.filter((m) => !m.withdrawn);
+  state.allMarkers = data.markers;
   markerGroup.clear();
   const list = $('marker-list');
   list.textContent = '';
+  $('frame-note').textContent = `coordinates: ${data.frame || 'world frame'}`;
   for (const m of data.markers) {
-    const s = numberSprite(m.number);
-    s.position.copy(vec(m.world));
-    markerGroup.add(s);
-    const li = document.createElement('li');
+    if (!m.withdrawn) {
+      const s = numberSprite(m.number);
+      s.position.copy(vec(m.world));
+      markerGroup.add(s);
+    }
+    const li = listEntry('marker', m.number, `${m.label} ${fmtPoint(m.world)}` + (m.note ? ` — ${m.note}` : ''), m);
     li.value = m.number;
-    li.textContent = `${m.label} (${m.world.map((v) => v.toFixed(3)).join(', ')})` + (m.note ? ` — ${m.note}` : '');
     list.appendChild(li);
   }
   fillWitnessChoices();
@@ -537,10 +594,50 @@ async function loadMarkers() {
   return data.markers;
 }
 
+// Measurements and trajectory analyses saved in the case (by the CLI or this viewer): listed,
+// and the standing ones drawn, so they survive a reload.
+const savedGroup = new THREE.Group();
+overlayGroup.add(savedGroup);
+async function loadSaved() {
+  const [m, t] = await Promise.all([api('/api/measurements'), api('/api/trajectories')]);
+  state.savedMeasurements = m.measurements;
+  state.savedTrajectories = t.analyses;
+  savedGroup.clear();
+  const mList = $('measurement-list');
+  mList.textContent = '';
+  m.measurements.forEach((x, i) => {
+    const angle = x.kind === 'plane_angle';
+    const value = angle ? `${x.angle_deg.toFixed(2)}° ± ${x.expanded_uncertainty_deg.toFixed(2)}°`
+      : `${fmtM(x.distance_m)} ± ${(x.expanded_uncertainty_m * 1000).toFixed(1)} mm`;
+    mList.appendChild(listEntry('measurement', `#${i + 1}`, `${x.name}: ${value}`, x));
+    if (!x.withdrawn && x.kind === 'point_to_point') {
+      const g = new THREE.BufferGeometry().setFromPoints([vec(x.a.snapped), vec(x.b.snapped)]);
+      const l = new THREE.Line(g, new THREE.LineBasicMaterial({ color: 0xffe37a, depthTest: false }));
+      l.renderOrder = 10;
+      savedGroup.add(l);
+    }
+  });
+  const tList = $('trajectory-list');
+  tList.textContent = '';
+  t.analyses.forEach((x, i) => {
+    tList.appendChild(listEntry('trajectory', `#${i + 1}`,
+      `${x.name}: az ${x.horizontal_angle_deg.toFixed(1)}°, el ${x.vertical_angle_deg.toFixed(1)}°, cone ${x.cone_half_angle_deg.toFixed(2)}°`, x));
+    if (!x.withdrawn) {
+      const ends = [x.backward.hit ? x.backward.point : x.points[0], x.forward.hit ? x.forward.point : x.points[x.points.length - 1]];
+      const g = new THREE.BufferGeometry().setFromPoints(ends.map(vec));
+      const l = new THREE.Line(g, new THREE.LineDashedMaterial({ color: 0xff5533, dashSize: 0.05, gapSize: 0.04, depthTest: false }));
+      l.computeLineDistances();
+      l.renderOrder = 10;
+      savedGroup.add(l);
+    }
+  });
+  requestRender();
+}
+
 function askMarker(point) {
   return new Promise((resolve) => {
     const form = $('marker-form');
-    $('marker-form-where').textContent = `at (${arr(point).map((v) => v.toFixed(3)).join(', ')})`;
+    $('marker-form-where').textContent = `at ${fmtPoint(arr(point))}`;
     $('marker-label').value = `Item ${state.markers.length + 1}`;
     $('marker-note').value = '';
     form.hidden = false;
@@ -563,7 +660,7 @@ async function onPick(point) {
     pending.push(point);
     dot(point, 0x66ccff);
     requestRender();
-    if (pending.length < 2) { result(`first point ${arr(point).map((v) => v.toFixed(3)).join(', ')}; click the second`); return; }
+    if (pending.length < 2) { result(`first point ${fmtPoint(arr(point))}; click the second`); return; }
     const [a, b] = pending;
     pending = [];
     if (tool === 'measure') await measure(a, b);
@@ -811,7 +908,7 @@ async function main() {
   else status('this case has no mesh/mesh.glb');
   if (info.view.cloud) tasks.push(loadPoints().catch((err) => status(`points: ${err.message}`)));
   else $('show-points').disabled = true;
-  tasks.push(loadMarkers());
+  tasks.push(loadMarkers().then(loadSaved));
   await Promise.all(tasks);
   for (const s of info.view.simulations || []) {
     if (!s.animation) continue;
@@ -828,7 +925,7 @@ async function main() {
 window.locardViewer = {
   state, ready: null, pickAt, toScreen, lookAt, measure: (a, b) => measure(vec(a), vec(b)),
   trajectory: (a, b) => trajectory(vec(a), vec(b)), placeMarker: (p, label, note) => placeMarker(vec(p), label, note),
-  loadMarkers, witnessView, setNavMode, runBenchmark, homeView,
+  loadMarkers, loadSaved, editObject, toCaseFrame, witnessView, setNavMode, runBenchmark, homeView,
   setTool: (name) => { document.querySelector(`input[name=tool][value=${name}]`).click(); },
   loadSimulation: (name) => {
     $('sim-select').value = name;
