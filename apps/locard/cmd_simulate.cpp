@@ -2,6 +2,8 @@
 // people) against a case's reconstructed mesh; writes simulations/<name>/ into the case.
 #include "commands.hpp"
 
+#include <locard/forensics/case_folder.hpp>
+#include <locard/forensics/report.hpp>
 #include <locard/sim/physics_output.hpp>
 
 #include <fmt/format.h>
@@ -21,6 +23,7 @@ struct SimulateCliOptions {
   std::optional<double> duration;
   std::optional<double> fps;
   bool force = false;
+  bool no_report = false;
 };
 
 int run(const SimulateCliOptions& o, const GlobalOptions& global) {
@@ -56,6 +59,13 @@ int run(const SimulateCliOptions& o, const GlobalOptions& global) {
   // Warnings are printed even with --quiet: a body that left the model changes what the
   // simulation can be taken to show.
   for (const std::string& w : s.result.warnings) fmt::print(stderr, "simulate: warning: {}\n", w);
+  if (s.logged && !o.no_report &&
+      std::filesystem::is_regular_file(std::filesystem::path(o.case_dir) / "report" / "report.html")) {
+    // The report lists the case's simulations (labelled illustrative): refreshed like every
+    // other command that changes the case.
+    forensics::CaseFolder folder = forensics::CaseFolder::open(o.case_dir, forensics::CaseAccess::Change);
+    forensics::refresh_case_report(folder);
+  }
   if (s.logged) print_log_head(o.case_dir);
   return 0;
 }
@@ -78,6 +88,7 @@ void register_simulate(CLI::App& app, GlobalOptions& global) {
       ->check(CLI::Range(0.001, 600.0));
   cmd->add_option("--fps", options->fps, "Animation samples per second (overrides the scenario's)")
       ->check(CLI::Range(1.0, 1000.0));
+  cmd->add_flag("--no-report", options->no_report, "Do not rewrite the case's report");
   cmd->add_flag("--force", options->force, "Replace an existing simulation of the same name");
   set_runner(cmd, [options, &global] { return run(*options, global); });
 }

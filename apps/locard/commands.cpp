@@ -41,6 +41,7 @@ void register_all(CLI::App& app, GlobalOptions& global) {
   register_sign(app, global);
   register_timestamp(app, global);
   register_evidence(app, global);
+  register_case(app, global);
 }
 
 int run_selected(CLI::App& app) {

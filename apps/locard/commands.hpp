@@ -44,5 +44,6 @@ void register_view(CLI::App&, GlobalOptions&);
 void register_sign(CLI::App&, GlobalOptions&);
 void register_timestamp(CLI::App&, GlobalOptions&);
 void register_evidence(CLI::App&, GlobalOptions&);
+void register_case(CLI::App&, GlobalOptions&);
 
 }  // namespace locard::cli

@@ -129,6 +129,7 @@ void for_each_field(ReconstructParameters& p, F&& f) {
   f("pdf", p.pdf);
   f("render_width", p.render_width);
   f("render_height", p.render_height);
+  f("paper", p.paper);
   f("title", p.title);
 }
 
@@ -279,6 +280,8 @@ ReconstructPlan plan_reconstruct(const fs::path& input, const ReconstructParamet
   plan.odometry_icp = *odometry_icp;
   if (P.world_frame != "auto" && P.world_frame != "first-camera")
     throw InputError(fmt::format("world_frame must be auto or first-camera, got '{}'", P.world_frame));
+  if (P.paper != "A4" && P.paper != "letter")
+    throw InputError(fmt::format("paper must be A4 or letter, got '{}'", P.paper));
   {
     std::stringstream ss(P.formats);
     std::string name;
@@ -727,6 +730,7 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
   ro.render_width = P.render_width;
   ro.render_height = P.render_height;
   ro.pdf = P.pdf;
+  ro.paper = P.paper;
   const ReportResult report = write_case_report(folder, ro);
   end("report");
   if (!report.pdf_note.empty()) note(report.pdf_note);

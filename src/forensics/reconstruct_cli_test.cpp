@@ -429,6 +429,50 @@ TEST_F(ReconstructCli, EvidenceIsRenamedAndWithdrawnAndPointsAreReadInTheCaseFra
   EXPECT_EQ(r.exit_code, 0) << r.output;
 }
 
+// Issue 15 item 7: the report names the case as an exhibit does (`locard case set`, a logged
+// step), prints on A4, lists the case's simulations labelled illustrative - refreshed by
+// `simulate` - and ends with an appendix headed by the manifest's and the log head's hashes.
+TEST_F(ReconstructCli, TheReportNamesTheCaseAndListsItsSimulations) {
+  const fs::path c = *dir_ / "exhibit-case";
+  ASSERT_EQ(run_cli(reconstruct_args(c)).exit_code, 0);
+  auto r = run_cli("case set " + q(c) + " --date 2026-02-30");
+  EXPECT_EQ(r.exit_code, 2) << r.output;  // no such day
+  r = run_cli("case set " + q(c));
+  EXPECT_EQ(r.exit_code, 2) << r.output;  // nothing to set
+  r = run_cli("case set " + q(c) + " --number 2026-0412 --investigator 'D. Reyes, crime scene "
+              "unit' --location '14 Elm Street, flat 3' --date 2026-12-03");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("case number:  2026-0412"), std::string::npos) << r.output;
+  r = run_cli("simulate " + q(c) + " " + q(fs::path(LOCARD_SOURCE_DIR) / "examples" / "scenarios" /
+                                         "bedroom-falling-object.json"));
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string html = read(c / "report" / "report.html");
+  EXPECT_NE(html.find("<h1>Case 2026-0412</h1>"), std::string::npos);
+  EXPECT_NE(html.find("<td>D. Reyes, crime scene unit</td>"), std::string::npos);
+  EXPECT_NE(html.find("<td>2026-12-03</td>"), std::string::npos);
+  EXPECT_NE(html.find("@page{size:A4"), std::string::npos);
+  EXPECT_NE(html.find("id=\"simulation-table\""), std::string::npos);
+  EXPECT_NE(html.find("bedroom-falling-object"), std::string::npos);
+  EXPECT_NE(html.find("ILLUSTRATIVE"), std::string::npos);
+  EXPECT_NE(html.find("id=\"anchor-hashes\""), std::string::npos);
+  const std::size_t appendix = html.find("Appendix: integrity");
+  ASSERT_NE(appendix, std::string::npos);
+  EXPECT_NE(html.find("manifest.json when this report was written", appendix), std::string::npos);
+  // The simulation's step, then the report's: refreshed by simulate.
+  std::ifstream log(c / "log.jsonl");
+  std::vector<std::string> steps;
+  for (std::string line; std::getline(log, line);)
+    if (!line.empty()) steps.push_back(nlohmann::json::parse(line)["step"]);
+  ASSERT_GE(steps.size(), 3u);
+  EXPECT_EQ(steps[steps.size() - 2], "simulate");
+  EXPECT_EQ(steps.back(), "report");
+  EXPECT_NE(std::find(steps.begin(), steps.end(), "case set"), steps.end());
+  r = run_cli("case show " + q(c));
+  EXPECT_NE(r.output.find("location:     14 Elm Street, flat 3"), std::string::npos) << r.output;
+  r = run_cli("verify " + q(c));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+}
+
 // Issue 14 (laundering): delete cloud/registered.ply, plant a file, run a routine command: the
 // manifest used to be re-hashed from the disk and verify then passed. Now the command verifies
 // first and refuses (exit 5) naming both, the manifest stays as it was, and verify names them.

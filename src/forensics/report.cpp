@@ -5,6 +5,7 @@
 #include <locard/core/atomic_file.hpp>
 #include <locard/core/error.hpp>
 #include <locard/forensics/case_folder.hpp>
+#include <locard/forensics/case_metadata.hpp>
 #include <locard/forensics/integrity.hpp>
 #include <locard/io/image_io.hpp>
 #include <locard/io/trajectory_io.hpp>
@@ -16,10 +17,12 @@
 
 #include <Eigen/Geometry>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cstdlib>
 #include <fstream>
+#include <map>
 #include <sstream>
 #include <unistd.h>
 
@@ -238,13 +241,23 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
   const TriangleMesh mesh = folder.load_mesh();
   const sim::Raycaster rc(mesh);
   const Trajectory trajectory = read_tum_trajectory(root / "alignment" / "trajectory.txt");
-  // Up: the mean of the cameras' -y axes (the sensor is held roughly level).
+  // Up: +z in a levelled case (reconstruct levels from the data's gravity or the floor);
+  // otherwise the mean of the cameras' -y axes (the sensor is held roughly level).
   Vector3d up = Vector3d::Zero();
-  for (const StampedPose& p : trajectory) up += p.T_world_camera.linear() * Vector3d(0, -1, 0);
-  up = up.norm() > 1e-6 ? up.normalized() : Vector3d::UnitZ();
+  const std::string frame_text = case_json.value("world_frame", "");
+  if (frame_text.find("levelled") != std::string::npos ||
+      frame_text.find("level as given") != std::string::npos) {
+    up = Vector3d::UnitZ();
+  } else {
+    for (const StampedPose& p : trajectory) up += p.T_world_camera.linear() * Vector3d(0, -1, 0);
+    up = up.norm() > 1e-6 ? up.normalized() : Vector3d::UnitZ();
+  }
+  const CaseMetadata metadata = read_case_metadata(folder);
 
   std::string h;
-  const std::string title = o.title.empty() ? case_json.value("title", "Locard case") : o.title;
+  const std::string title = !metadata.number.empty()
+                                ? "Case " + metadata.number
+                                : (o.title.empty() ? case_json.value("title", "Locard case") : o.title);
   h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\">\n";
   h += "<title>" + esc(title) + "</title>\n<style>\n"
        "body{font-family:DejaVu Sans,Arial,sans-serif;margin:24px;color:#222;max-width:1100px}"
@@ -256,6 +269,9 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
        "tr.withdrawn td:not(:last-child){text-decoration:line-through}.hash{font-family:monospace;font-size:10px}"
        ".views img{width:48%;margin:0.5%;border:1px solid #ccc}figure{margin:8px 0}"
        "figcaption{font-size:12px;color:#555}.note{font-size:12px;color:#555}"
+       ".illustrative{border:2px solid #c60;padding:4px 8px;color:#c60;font-weight:bold}"
+       ".hashes{columns:2;font-family:monospace;font-size:8px;line-height:1.25}"
+       "@page{size:" + o.paper + ";margin:14mm}"
        "@media print{h2{page-break-after:avoid}table{page-break-inside:auto}}\n</style></head><body>\n";
   h += "<h1>" + esc(title) + "</h1>\n";
   h += fmt::format("<p class=\"note\">Case folder <code>{}</code>, created {} by Locard {}. World "
@@ -264,6 +280,17 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
                    esc(fs::absolute(root).string()), esc(case_json.value("created", "")),
                    esc(case_json["software"].value("version", "")),
                    esc(case_json.value("world_frame", "")));
+  // The case as a court exhibit names it
+  {
+    const auto field = [](const std::string& v) {
+      return v.empty() ? std::string("<span class=note>not set (<code>locard case set</code>)</span>") : esc(v);
+    };
+    h += fmt::format("<table id=\"case-metadata\"><tr><th>case number</th><td>{}</td></tr><tr><th>"
+                     "investigator</th><td>{}</td></tr><tr><th>location</th><td>{}</td></tr><tr>"
+                     "<th>date of examination</th><td>{}</td></tr></table>\n",
+                     field(metadata.number), field(metadata.investigator),
+                     field(metadata.location), field(metadata.date));
+  }
   // Summary
   h += "<h2 id=\"summary\">Summary</h2>\n<table>";
   const json& in = case_json["inputs"];
@@ -468,6 +495,46 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
     h += "</table>\n";
   }
 
+  // Simulations: never measured data, said on every row.
+  h += "<h2 id=\"simulations\">Simulations (illustrative)</h2>\n";
+  {
+    std::vector<fs::path> sims;
+    std::error_code ec;
+    if (fs::is_directory(root / "simulations", ec))
+      for (const auto& e : fs::directory_iterator(root / "simulations", ec))
+        if (e.is_directory() && fs::is_regular_file(e.path() / "events.json")) sims.push_back(e.path());
+    std::sort(sims.begin(), sims.end());
+    if (sims.empty()) {
+      h += "<p class=\"note\">No simulations (<code>locard simulate</code>).</p>\n";
+    } else {
+      h += "<p class=\"illustrative\">ILLUSTRATIVE: physics scenarios played against the model "
+           "show what could have happened under the scenario's assumptions. They are not "
+           "measured data.</p>\n<table id=\"simulation-table\"><tr><th>scenario</th><th>"
+           "description</th><th>events</th><th>support and warnings</th></tr>";
+      for (const fs::path& dir : sims) {
+        const json ev = read_json_or_null(dir / "events.json");
+        if (ev.is_null()) continue;
+        std::map<std::string, int> counts;
+        if (ev.contains("events") && ev["events"].is_array())
+          for (const json& e : ev["events"]) ++counts[e.value("type", "?")];
+        std::string events;
+        for (const auto& [type, n] : counts) events += fmt::format("{}{} {}", events.empty() ? "" : ", ", n, type);
+        std::string support;
+        if (ev.contains("inferred_support") && ev["inferred_support"].is_object())
+          support = fmt::format("floor inferred at {:.3f} m where the scan has holes",
+                                ev["inferred_support"].value("height_m", 0.0));
+        if (ev.contains("warnings") && ev["warnings"].is_array())
+          for (const json& w : ev["warnings"])
+            if (w.is_string()) support += (support.empty() ? "" : "; ") + std::string("warning: ") + w.get<std::string>();
+        h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                         esc(ev.value("scenario", dir.filename().string())),
+                         esc(ev.value("description", "")), esc(events.empty() ? "none" : events),
+                         esc(support.empty() ? "-" : support));
+      }
+      h += "</table>\n";
+    }
+  }
+
   // Parameters
   h += "<h2 id=\"parameters\">Parameters</h2>\n<table>";
   for (const auto& [k, v] : case_json["parameters"].items())
@@ -499,19 +566,24 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
   }
   h += "</table>\n";
 
-  // Hashes
-  h += "<h2 id=\"hashes\">Integrity: SHA-256 of every output and input</h2>\n";
-  h += "<p class=\"note\">Outputs as listed in manifest.json when this report was written (the "
-       "report and the final manifest are hashed in log.jsonl and manifest.json). Check with "
-       "<code>locard verify CASE_DIR</code>.</p>";
+  // Hashes: an appendix headed by the two hashes that cover everything (the manifest lists
+  // every output's hash, the log head anchors the history); the inputs, often thousands of
+  // frames, in compact columns (their full hashes are in case.json, itself in the manifest).
+  h += "<h2 id=\"hashes\">Appendix: integrity (SHA-256)</h2>\n";
   {
-    // The anchor (case_folder.hpp): this head stays a line of the log unless the steps up to
-    // it are rewritten; the report's own step follows it.
     const std::string head = log_head_sha256(root);
-    h += fmt::format("<p id=\"log-head\">Log head when this report was written: <span "
-                     "class=hash>sha256 {}</span>. Check that the case still holds every step up "
-                     "to it with <code>locard verify CASE_DIR --expect-head {}</code>.</p>\n",
-                     head.empty() ? "(empty log)" : head, head);
+    const fs::path manifest_path = root / "manifest.json";
+    const std::string manifest_hash = fs::is_regular_file(manifest_path) ? sha256_file(manifest_path) : "";
+    h += fmt::format("<table id=\"anchor-hashes\"><tr><th>manifest.json when this report was "
+                     "written</th><td class=hash>sha256 {}</td></tr><tr><th>log head</th><td "
+                     "class=hash id=\"log-head\">sha256 {}</td></tr></table>\n",
+                     manifest_hash.empty() ? "(none)" : manifest_hash,
+                     head.empty() ? "(empty log)" : head);
+    h += fmt::format("<p class=\"note\">Check the case with <code>locard verify CASE_DIR</code>, "
+                     "and that it still holds every step up to this report with <code>locard "
+                     "verify CASE_DIR --expect-head {}</code>. The report and the final manifest "
+                     "are hashed in log.jsonl and manifest.json.</p>",
+                     head);
   }
   h += "<table id=\"output-hashes\"><tr><th>case file</th><th>bytes</th><th>sha256</th></tr>";
   if (const json manifest = read_json_or_null(root / "manifest.json"); !manifest.is_null())
@@ -519,13 +591,17 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
       if (k.rfind("report/", 0) != 0)
         h += fmt::format("<tr><td>{}</td><td class=n>{}</td><td class=hash>{}</td></tr>", esc(k),
                          v.value("bytes", 0), esc(v.value("sha256", "")));
-  h += "</table>\n<table id=\"input-hashes\"><tr><th>input file (under " + esc(in.value("root", "")) +
-       ")</th><th>bytes</th><th>sha256</th></tr>";
-  if (in.contains("files"))
+  h += "</table>\n";
+  if (in.contains("files") && in["files"].is_array()) {
+    h += fmt::format("<p class=\"note\">{} input files under <code>{}</code>: path and the first "
+                     "16 hex digits of each SHA-256 (case.json holds them in full).</p><div "
+                     "class=\"hashes\" id=\"input-hashes\">",
+                     in["files"].size(), esc(in.value("root", "")));
     for (const json& f : in["files"])
-      h += fmt::format("<tr><td>{}</td><td class=n>{}</td><td class=hash>{}</td></tr>",
-                       esc(f.value("path", "")), f.value("bytes", 0), esc(f.value("sha256", "")));
-  h += "</table>\n</body></html>\n";
+      h += fmt::format("{} {}<br>", esc(f.value("sha256", "").substr(0, 16)), esc(f.value("path", "")));
+    h += "</div>\n";
+  }
+  h += "</body></html>\n";
 
   ReportResult result;
   result.html = folder.path("report/report.html");
@@ -584,6 +660,7 @@ ReportResult refresh_case_report(CaseFolder& folder) {
     o.render_width = p.value("render_width", o.render_width);
     o.render_height = p.value("render_height", o.render_height);
     o.pdf = p.value("pdf", o.pdf);
+    o.paper = p.value("paper", o.paper);
   }
   CaseChange change(folder, {"report/report.html", "report/report.pdf"});
   const bool had_pdf = fs::exists(folder.root() / "report" / "report.pdf");

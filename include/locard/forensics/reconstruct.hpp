@@ -63,6 +63,7 @@ struct ReconstructParameters {
   bool pdf = true;
   int render_width = 640;
   int render_height = 400;
+  std::string paper = "A4";  // the PDF's page: A4 or letter
   std::string title;  // default: "Case <folder name>"
 
   // Every field as a JSON object (text) and back; unknown keys in a --config file are an

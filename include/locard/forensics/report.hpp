@@ -37,6 +37,7 @@ struct ReportOptions {
   int render_width = 640;
   int render_height = 400;
   bool pdf = true;
+  std::string paper = "A4";  // CSS @page size: "A4" (the default) or "letter"
 };
 
 struct ReportResult {
