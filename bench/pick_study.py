@@ -1,0 +1,57 @@
+#!/usr/bin/python3
+# Issue 15 item 1 study: every reference distance of a case measured with both ends moved 1.5 cm
+# along the surface at right angles to the line (both ways), through `locard measure`, as an
+# investigator's clicks land near the tape points. Counts the rows within their stated U with
+# both ends snapped to a feature (a row with an end "not snapped" is never counted within U) and
+# the rows beyond 3 U. Uses Debian's numpy (/usr/bin/python3). Measures into the case: give it
+# a copy.
+#   bench/pick_study.py SCAN_DIR CASE_COPY [LOCARD]
+#   (SCAN_DIR holds measurements.json, e.g. `locard scan-sim -o scan`; CASE_COPY a copy of
+#    `locard reconstruct scan -o case`)
+import json, subprocess, re, struct, sys
+import numpy as np
+scan=sys.argv[1]; case=sys.argv[2]
+locard=sys.argv[3] if len(sys.argv)>3 else 'build/release/locard'
+refs=json.load(open(scan+'/measurements.json'))['measurements']
+# mesh (binary PLY little endian): read vertices and faces
+data=open(case+'/mesh/mesh.ply','rb').read()
+hdr_end=data.index(b'end_header\n')+len(b'end_header\n'); hdr=data[:hdr_end].decode().splitlines()
+nv=int([l for l in hdr if l.startswith('element vertex')][0].split()[2]); nf=int([l for l in hdr if l.startswith('element face')][0].split()[2])
+props=[]; cur=None
+for l in hdr:
+    if l.startswith('element'): cur=l.split()[1]
+    elif l.startswith('property') and cur=='vertex': props.append(l.split()[1])
+sizes={'float':4,'double':8,'uchar':1,'int':4,'uint':4,'short':2,'ushort':2}
+fmt={'float':'f','double':'d','uchar':'B','int':'i','uint':'I','short':'h','ushort':'H'}
+vt=np.dtype([('p%d'%i,'<'+fmt[t]) for i,t in enumerate(props)])
+V=np.frombuffer(data,dtype=vt,count=nv,offset=hdr_end)
+P=np.stack([V['p0'],V['p1'],V['p2']],1).astype(float)
+fo=hdr_end+vt.itemsize*nv
+F=np.frombuffer(data,dtype=np.dtype([('n','u1'),('i','<i4',(3,))]),count=nf,offset=fo)['i']
+C=P[F].mean(1); N=np.cross(P[F[:,1]]-P[F[:,0]],P[F[:,2]]-P[F[:,0]]); N/=np.linalg.norm(N,axis=1)[:,None]+1e-12
+def normal_at(p):
+    d=np.linalg.norm(C-p,axis=1); idx=np.argsort(d)[:30]
+    n=N[idx]; n=n*np.sign(n@n[0])[:,None]; n=n.mean(0); return n/np.linalg.norm(n)
+rows=[]
+for r in refs:
+    a=np.array(r['a'],float); b=np.array(r['b'],float); d=b-a; d/=np.linalg.norm(d)
+    for sgn in (+1,-1):
+        ends=[]
+        for p in (a,b):
+            t=np.cross(normal_at(p),d)
+            if np.linalg.norm(t)<1e-6: t=np.cross([0,0,1],d)
+            t/=np.linalg.norm(t); ends.append(p+sgn*0.015*t)
+        fa=','.join('%.4f'%v for v in ends[0]); fb=','.join('%.4f'%v for v in ends[1])
+        out=subprocess.run([locard,'measure',case,'--from',fa,'--to',fb,'--no-report','--frame','world','--name','pick'],capture_output=True,text=True)
+        m=re.search(r': ([0-9.]+) m \+- ([0-9.]+) m \(k=2\); ends (.+) and (.+)',out.stdout)
+        if not m: rows.append((r['name'],sgn,None,None,None,out.stderr.strip()[:80])); continue
+        dist,U=float(m.group(1)),float(m.group(2)); err=dist-r['distance_m']
+        snapped = 'not snapped' not in (m.group(3)+m.group(4))
+        rows.append((r['name'],sgn,err,U,snapped,m.group(3)+'/'+m.group(4)))
+within=beyond=total=0
+for name,sgn,err,U,sn,feat in rows:
+    total+=1
+    if err is None: print(f'{name:16s} {sgn:+d} FAILED {feat}'); continue
+    w = sn and abs(err)<=U; within+=w; beyond+= abs(err)>3*U
+    print(f'{name:16s} {sgn:+d} error {1000*err:+7.1f} mm U {1000*U:5.1f} mm {"within" if w else ("not snapped" if not sn else "OUTSIDE")} {"(>3U)" if abs(err)>3*U else ""} {feat}')
+print(f'within U (both ends snapped): {within}/{total}; beyond 3U: {beyond}/{total}')
