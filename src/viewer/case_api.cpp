@@ -4,6 +4,8 @@
 // CLI does.
 #include <locard/viewer/case_api.hpp>
 
+#include "forensics/revisions_json.hpp"
+
 #include <locard/core/atomic_file.hpp>
 #include <locard/core/error.hpp>
 #include <locard/forensics/case_edits.hpp>
@@ -83,12 +85,6 @@ json to_json(const forensics::SnappedPoint& p) {
               {"planes", p.planes}};
 }
 
-// Revisions as the case files hold them: absent for an untouched object.
-void put_revisions(json& out, const forensics::Revisions& r) {
-  if (!r.previous_names.empty()) out["previous_names"] = r.previous_names;
-  if (r.withdrawn()) out["withdrawn"] = {{"reason", r.withdrawn_reason}, {"at", r.withdrawn_at}};
-}
-
 json to_json(const forensics::EvidenceMarker& m) {
   json out{{"number", m.number},
            {"label", m.label},
@@ -97,7 +93,7 @@ json to_json(const forensics::EvidenceMarker& m) {
            {"snapped", m.snapped},
            {"expanded_uncertainty_m", m.expanded_uncertainty_m},
            {"created", m.created}};
-  put_revisions(out, m.revisions);
+  forensics::put_revisions(out, m.revisions);
   return out;
 }
 
@@ -126,7 +122,7 @@ json to_json(const forensics::TrajectoryAnalysis& t) {
               {"cone_half_angle_deg", t.cone_half_angle_deg},
               {"forward", to_json(t.forward)},
               {"backward", to_json(t.backward)}};
-  put_revisions(out, t.revisions);
+  forensics::put_revisions(out, t.revisions);
   return out;
 }
 
