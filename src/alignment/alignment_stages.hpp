@@ -6,6 +6,7 @@
 //   propose_loops    loop candidates from pose proximity, ring structure and piece ends (3)
 //   verify_loops     each candidate checked by registration (3)
 //   solve_graph      pose graph over odometry and loop edges, pieces joined (4)
+//   refine_jointly   every overlapping pair registered again, one graph over them all (4b)
 //   check_views      every registered view tested against the others' model (5)
 // Each stage reads what the earlier ones wrote and adds its own part; none reaches back.
 #include <locard/alignment/sequential_alignment.hpp>
@@ -64,6 +65,7 @@ void hold_to_tripod(AlignmentState& state);
 void propose_loops(AlignmentState& state);
 void verify_loops(AlignmentState& state);
 void solve_graph(AlignmentState& state);
+void refine_jointly(AlignmentState& state);
 void check_views(AlignmentState& state);
 // Smallest eigenvalue of a camera-frame cloud's per-point normal matrix (ViewCheckOptions'
 // "constraint"): rotation about the camera centre only, or all six degrees of freedom.

@@ -233,11 +233,21 @@ void write_stage_report_json(const std::filesystem::path& path, const AlignmentR
                      {"max_odometry_bend_deg", pg.max_odometry_bend_deg},
                      {"max_odometry_bend_m", pg.max_odometry_bend_m},
                      {"rejected_edges", pg.rejected.size()}};
+  const JointRefinement& jr = result.refinement;
+  j["joint_refinement"] = {{"run", result.options.joint_refinement},
+                           {"pairs", jr.pairs},
+                           {"iterations", jr.iterations},
+                           {"correspondences", jr.correspondences},
+                           {"views_held", jr.views_held},
+                           {"max_change_m", jr.max_change_m},
+                           {"max_change_deg", jr.max_change_deg},
+                           {"undone", jr.undone}};
   const AlignmentTimings& t = result.timings;
   j["timings_s"] = {{"prepare", t.prepare_s},
                     {"register", t.register_s},
                     {"loop_closure", t.loop_closure_s},
                     {"pose_graph", t.pose_graph_s},
+                    {"joint_refinement", t.refinement_s},
                     {"verification", t.verification_s},
                     {"total", t.total_s}};
   AtomicFile file(path, false);

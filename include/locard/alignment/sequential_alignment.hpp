@@ -50,6 +50,10 @@
 //     wrong loop edges are pruned by the line process and the post-check. On a tripod turn a
 //     solution that moves more views off the tripod than tracking left there is undone and
 //     its loop edges are reported rejected (they slide along walls; the tripod does not).
+//  4b. Joint refinement (tripod turn; joint_refinement.cpp): every view moved at once by one
+//     least-squares problem over the point-to-plane residuals of all overlapping pairs (up to
+//     8 partners a view), with a weak prior at the solved pose for what no pair fixes; views
+//     that would move more than a voxel or a degree keep their solved pose.
 // Randomness (RANSAC) is seeded by `seed`; the same input and options give the same result.
 
 #include <locard/alignment/pose_graph.hpp>
@@ -154,6 +158,10 @@ struct AlignmentOptions {
   std::size_t loop_candidates_per_keyframe = 3;  // the nearest earlier keyframes of each
   std::size_t max_loop_candidates = 200;         // nearest first, over all keyframes
   PoseGraphOptions pose_graph;
+  // Joint refinement (step 4b, joint_refinement.cpp): all views moved at once by one
+  // least-squares problem over the point-to-plane residuals of every overlapping pair.
+  // Runs on a tripod turn (cumulative mode).
+  bool joint_refinement = true;
   // Self-check (view_verification.hpp): every registered view is tested against the model of
   // the other views; `align` and `reconstruct` exit with kExitTooFewVerified when fewer than
   // this share of the usable views is verified.
@@ -245,8 +253,20 @@ struct AlignmentTimings {
   double register_s = 0.0;
   double loop_closure_s = 0.0;
   double pose_graph_s = 0.0;
+  double refinement_s = 0.0;
   double verification_s = 0.0;
   double total_s = 0.0;
+};
+
+// What the joint refinement (step 4b) did.
+struct JointRefinement {
+  std::size_t pairs = 0;            // overlapping view pairs in the problem
+  int iterations = 0;               // Gauss-Newton steps
+  std::size_t correspondences = 0;  // in the last step
+  std::size_t views_held = 0;       // would have moved too far: kept at the solved pose
+  double max_change_m = 0.0;        // largest move of a view kept
+  double max_change_deg = 0.0;
+  bool undone = false;              // moved views off the tripod: the solved poses kept
 };
 
 struct AlignmentResult {
@@ -257,6 +277,7 @@ struct AlignmentResult {
   std::vector<std::size_t> node_frames;  // node -> index into `frames`
   PoseGraphResult pose_graph;
   std::size_t pieces = 0;              // connected pieces after loop closure
+  JointRefinement refinement;
   AlignmentTimings timings;
 
   // Trusted frames (registered, not flagged) with their final poses (TUM-ready); piece < 0

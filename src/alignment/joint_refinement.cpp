@@ -1,0 +1,318 @@
+// Stage 4b of align_sequence: joint refinement of the solved poses (alignment_stages.hpp).
+//
+// Why. Tracking registers each view against a model that already carries the errors of the
+// views before it, and the pose graph sees only those chained edges and a few loop closures:
+// on a tripod turn the result is off by millimetres and tenths of a degree around the room, an
+// error no single edge disagrees with. Registering pairs again does not cure it: a pair that
+// sees little more than one wall leaves its slide along the wall free, pairwise ICP drifts
+// along it (tens of millimetres on a plain room's ring-to-ring pairs) and its edge pulls the
+// graph. So all views are moved at once, by one least-squares problem over the point-to-plane
+// residuals of every overlapping pair (multi-view ICP, as Pulli 1999 and the joint
+// registration of Evangelidis et al. 2014):
+//
+//   E(xi_1..xi_N) = sum_pairs(i,j) sum_k w_k ( n_k . (exp(xi_i) p_k - exp(xi_j) q_k) )^2
+//                   + lambda sum_i |S xi_i|^2
+//
+// with p_k a point of view i, q_k its nearest point of view j within one voxel and n_k q's
+// normal, all in the world frame, centred on the views' mean camera centre (so a rotation's
+// lever is the room's, not the world origin's). xi_i = (omega, v) is a left perturbation of
+// view i about that centre, linearised as p -> p + omega x p + v, which gives the Jacobians
+//   d r / d xi_i = [ (p x n)^T  n^T ],   d r / d xi_j = -[ (q x n)^T  n^T ].
+// w_k is Tukey's weight (scale half a voxel). A residual only pushes along its normal, so a
+// wall pair pins the wall's normal and nothing else: no false constraint along the slide.
+// The prior lambda |S (xi_i + e_i)|^2, e_i the view's offset from its solved pose and S the
+// rotation scaled by the points' RMS lever, holds what no pair fixes - the gauge, and a
+// bare-wall view's slide - at the solved pose; it is weak enough to bias a direction that a
+// few hundred residuals fix by a few per cent. Gauss-Newton steps with correspondences found again each time,
+// until the largest step is below 0.05 mm and 0.003 degree.
+//
+// Safety. Refinement corrects and never re-registers: a view that would move more than a
+// voxel or a degree keeps its solved pose, and on a tripod turn a result that leaves more
+// views off the tripod than before is not kept (tripod_fit.hpp's bounds). The self-check
+// (stage 5) judges the refined poses.
+#include "alignment/alignment_stages.hpp"
+#include "alignment/tripod_fit.hpp"
+
+#include <locard/core/kdtree.hpp>
+
+#include <Eigen/Geometry>
+#include <Eigen/SparseCholesky>
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <set>
+
+namespace locard::alignment_detail {
+namespace {
+
+using Vector6d = Eigen::Matrix<double, 6, 1>;
+using Matrix12d = Eigen::Matrix<double, 12, 12>;
+using Vector12d = Eigen::Matrix<double, 12, 1>;
+
+// Pairs are views whose cells (twice the voxel size) overlap by at least this share of the
+// smaller view's; each view keeps its kMaxPartners most overlapping partners, which bounds
+// the cost of a long sequence.
+constexpr double kMinPairOverlap = 0.25;
+constexpr std::size_t kMaxPartners = 8;
+constexpr int kMaxIterations = 8;
+constexpr double kStepEpsM = 5e-5;
+constexpr double kStepEpsDeg = 3e-3;
+// Every kSourceStride-th point of a view is a source point: a pair still has thousands of
+// residuals, and the cost halves.
+constexpr std::size_t kSourceStride = 2;
+// Weight of the prior that holds each view at its solved pose, in correspondences: a direction
+// that fewer than this many residuals fix stays where the pose graph put it (compare the
+// thousands a seen surface gives).
+constexpr double kPrior = 2.0;
+// Normals of a correspondence further apart than this are not the same surface (the two
+// sides of a thin object).
+constexpr double kMinNormalCos = 0.7;  // 45 degrees
+
+struct View {
+  const PointCloud* cloud = nullptr;  // camera frame, with normals
+  KdTree tree;                        // camera-frame points
+};
+
+double rotation_deg(const Eigen::Matrix3d& R) {
+  const double c = std::clamp((R.trace() - 1.0) / 2.0, -1.0, 1.0);
+  return std::acos(c) * 180.0 / M_PI;
+}
+
+std::uint64_t cell_key(const Eigen::Vector3f& p, float inverse_size) {
+  const auto q = [&](float v) {
+    return static_cast<std::uint64_t>(static_cast<std::int64_t>(std::floor(v * inverse_size)) +
+                                      (1 << 20)) & 0x1fffff;
+  };
+  return q(p.x()) | (q(p.y()) << 21) | (q(p.z()) << 42);
+}
+
+std::vector<std::uint64_t> world_cells(const PointCloud& cloud, const Isometry3d& T,
+                                       double cell) {
+  const Eigen::Isometry3f Tf = T.cast<float>();
+  const float inverse = static_cast<float>(1.0 / cell);
+  std::vector<std::uint64_t> keys;
+  keys.reserve(cloud.size());
+  for (const Eigen::Vector3f& p : cloud.positions) {
+    const Eigen::Vector3f q = Tf * p;
+    if (q.allFinite()) keys.push_back(cell_key(q, inverse));
+  }
+  std::sort(keys.begin(), keys.end());
+  keys.erase(std::unique(keys.begin(), keys.end()), keys.end());
+  return keys;
+}
+
+std::size_t shared(const std::vector<std::uint64_t>& x, const std::vector<std::uint64_t>& y) {
+  std::size_t n = 0;
+  for (auto i = x.begin(), j = y.begin(); i != x.end() && j != y.end();) {
+    if (*i < *j) ++i;
+    else if (*j < *i) ++j;
+    else { ++n; ++i; ++j; }
+  }
+  return n;
+}
+
+// Overlapping pairs (i < j, same piece) at the solved poses; each view keeps its most
+// overlapping partners.
+std::vector<std::pair<std::size_t, std::size_t>> overlapping_pairs(
+    const AlignmentState& s, const std::vector<Isometry3d>& poses) {
+  const std::size_t n = poses.size();
+  const double cell = 2.0 * s.options.voxel_size;
+  std::vector<std::vector<std::uint64_t>> cells(n);
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
+    cells[k] = world_cells(s.prepared[s.registered[k]].coarse, poses[k], cell);
+  });
+  std::vector<std::vector<std::pair<double, std::size_t>>> partners(n);
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t i) {
+    for (std::size_t j = 0; j < n; ++j) {
+      if (j == i || s.piece_of[s.registered[i]] != s.piece_of[s.registered[j]]) continue;
+      const std::size_t smaller = std::min(cells[i].size(), cells[j].size());
+      if (!smaller) continue;
+      const double overlap =
+          static_cast<double>(shared(cells[i], cells[j])) / static_cast<double>(smaller);
+      if (overlap >= kMinPairOverlap) partners[i].emplace_back(overlap, j);
+    }
+    std::sort(partners[i].begin(), partners[i].end(), std::greater<>());
+    if (partners[i].size() > kMaxPartners) partners[i].resize(kMaxPartners);
+  });
+  std::set<std::pair<std::size_t, std::size_t>> pairs;
+  for (std::size_t i = 0; i < n; ++i)
+    for (const auto& [overlap, j] : partners[i]) pairs.emplace(std::min(i, j), std::max(i, j));
+  return {pairs.begin(), pairs.end()};
+}
+
+// The normal equations of one pair, both directions (i's points against j's surface and j's
+// against i's), at the current poses. Returns the number of correspondences.
+std::size_t accumulate_pair(const std::vector<View>& views, const std::vector<Isometry3d>& poses,
+                            const Eigen::Vector3d& centre, std::size_t i, std::size_t j,
+                            double gate, Matrix12d& H, Vector12d& g) {
+  H.setZero();
+  g.setZero();
+  std::size_t count = 0;
+  const double tukey = 0.5 * gate;
+  for (int direction = 0; direction < 2; ++direction) {
+    const std::size_t a = direction ? j : i;  // points
+    const std::size_t b = direction ? i : j;  // surface
+    const int block_a = direction ? 6 : 0, block_b = direction ? 0 : 6;
+    const Isometry3d T_b_a = poses[b].inverse() * poses[a];
+    const Eigen::Matrix3d R_b = poses[b].linear();
+    const PointCloud& ca = *views[a].cloud;
+    const PointCloud& cb = *views[b].cloud;
+    Neighbor hit;
+    for (std::size_t k = 0; k < ca.size(); k += kSourceStride) {
+      const Eigen::Vector3d p_b = T_b_a * ca.positions[k].cast<double>();
+      if (!views[b].tree.nearest(p_b.cast<float>(), hit, static_cast<float>(gate))) continue;
+      const Eigen::Vector3d n_b = cb.normals[hit.index].cast<double>();
+      const Eigen::Vector3d na_b = T_b_a.linear() * ca.normals[k].cast<double>();
+      if (!n_b.allFinite() || !na_b.allFinite() || n_b.dot(na_b) < kMinNormalCos) continue;
+      const Eigen::Vector3d q_b = cb.positions[hit.index].cast<double>();
+      const double r = n_b.dot(p_b - q_b);
+      const double u = r / tukey;
+      if (std::abs(u) >= 1.0) continue;
+      const double w = (1.0 - u * u) * (1.0 - u * u);
+      // World frame, centred.
+      const Eigen::Vector3d n = R_b * n_b;
+      const Eigen::Vector3d p = poses[b] * p_b - centre;
+      const Eigen::Vector3d q = poses[b] * q_b - centre;
+      Vector12d J;
+      J.segment<3>(block_a) = p.cross(n);
+      J.segment<3>(block_a + 3) = n;
+      J.segment<3>(block_b) = -q.cross(n);
+      J.segment<3>(block_b + 3) = -n;
+      H.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
+      g += w * r * J;
+      ++count;
+    }
+  }
+  H.triangularView<Eigen::Lower>() = H.transpose();
+  return count;
+}
+
+Isometry3d perturbed(const Isometry3d& T, const Vector6d& xi, const Eigen::Vector3d& centre) {
+  Isometry3d D = Isometry3d::Identity();
+  const double angle = xi.head<3>().norm();
+  if (angle > 0.0) D.linear() = Eigen::AngleAxisd(angle, xi.head<3>() / angle).toRotationMatrix();
+  D.translation() = centre + xi.tail<3>() - D.linear() * centre;
+  return D * T;
+}
+
+// One Gauss-Newton step over all views; returns the largest step (metres, degrees).
+std::pair<double, double> step(const std::vector<View>& views, std::vector<Isometry3d>& poses,
+                               const std::vector<Isometry3d>& solved,
+                               const std::vector<std::pair<std::size_t, std::size_t>>& pairs,
+                               double gate, JointRefinement& report) {
+  const std::size_t n = poses.size();
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const Isometry3d& T : poses) centre += T.translation();
+  centre /= static_cast<double>(n);
+  std::vector<Matrix12d> H(pairs.size());
+  std::vector<Vector12d> g(pairs.size());
+  std::vector<std::size_t> counts(pairs.size());
+  tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t k) {
+    counts[k] = accumulate_pair(views, poses, centre, pairs[k].first, pairs[k].second, gate,
+                                H[k], g[k]);
+  });
+  // Lever of the rotation damping: RMS distance of the views' points from the centre (a
+  // sample of each view).
+  double lever2 = 0.0;
+  std::size_t sampled = 0;
+  for (std::size_t i = 0; i < n; ++i)
+    for (std::size_t k = 0; k < views[i].cloud->size(); k += 16, ++sampled)
+      lever2 += (poses[i] * views[i].cloud->positions[k].cast<double>() - centre).squaredNorm();
+  lever2 = sampled ? lever2 / static_cast<double>(sampled) : 1.0;
+  std::vector<Eigen::Triplet<double>> entries;
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(6 * n));
+  for (std::size_t k = 0; k < pairs.size(); ++k) {
+    if (counts[k] < 6) continue;
+    report.correspondences += counts[k];
+    const std::size_t base[2] = {6 * pairs[k].first, 6 * pairs[k].second};
+    for (int bi = 0; bi < 2; ++bi) {
+      for (int bj = 0; bj < 2; ++bj)
+        for (int r = 0; r < 6; ++r)
+          for (int c = 0; c < 6; ++c)
+            entries.emplace_back(static_cast<int>(base[bi]) + r, static_cast<int>(base[bj]) + c,
+                                 H[k](6 * bi + r, 6 * bj + c));
+      rhs.segment<6>(static_cast<Eigen::Index>(base[bi])) -= g[k].segment<6>(6 * bi);
+    }
+  }
+  // The prior: each view's offset e from its solved pose (as a perturbation about the centre)
+  // costs kPrior |S (e + xi)|^2.
+  for (std::size_t i = 0; i < n; ++i) {
+    const Isometry3d D = poses[i] * solved[i].inverse();
+    const Eigen::AngleAxisd aa(D.linear());
+    Vector6d e;
+    e << aa.angle() * aa.axis(), D.translation() - centre + D.linear() * centre;
+    for (int r = 0; r < 6; ++r) {
+      const double w = r < 3 ? kPrior * lever2 : kPrior;
+      entries.emplace_back(static_cast<int>(6 * i) + r, static_cast<int>(6 * i) + r, w);
+      rhs(static_cast<Eigen::Index>(6 * i) + r) -= w * e(r);
+    }
+  }
+  Eigen::SparseMatrix<double> A(static_cast<Eigen::Index>(6 * n), static_cast<Eigen::Index>(6 * n));
+  A.setFromTriplets(entries.begin(), entries.end());
+  const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(A);
+  if (solver.info() != Eigen::Success) return {0.0, 0.0};
+  const Eigen::VectorXd x = solver.solve(rhs);
+  if (!x.allFinite()) return {0.0, 0.0};
+  double max_m = 0.0, max_deg = 0.0;
+  for (std::size_t i = 0; i < n; ++i) {
+    const Vector6d xi = x.segment<6>(static_cast<Eigen::Index>(6 * i));
+    max_deg = std::max(max_deg, xi.head<3>().norm() * 180.0 / M_PI);
+    max_m = std::max(max_m, xi.tail<3>().norm());
+    poses[i] = perturbed(poses[i], xi, centre);
+  }
+  return {max_m, max_deg};
+}
+
+}  // namespace
+
+void refine_jointly(AlignmentState& s) {
+  AlignmentResult& result = s.result;
+  JointRefinement& report = result.refinement;
+  const std::size_t n = s.registered.size();
+  if (n < 2) return;
+  const std::vector<Isometry3d> solved = result.graph.nodes;
+  std::vector<Isometry3d> poses = solved;
+  const auto pairs = overlapping_pairs(s, poses);
+  report.pairs = pairs.size();
+  if (pairs.empty()) return;
+  std::vector<View> views(n);
+  tbb::parallel_for(std::size_t{0}, n, [&](std::size_t k) {
+    views[k].cloud = &s.prepared[s.registered[k]].cloud;
+    views[k].tree = KdTree(views[k].cloud->positions);
+  });
+  const double gate = s.options.voxel_size;
+  for (int it = 0; it < kMaxIterations; ++it) {
+    report.correspondences = 0;
+    const auto [m, deg] = step(views, poses, solved, pairs, gate, report);
+    report.iterations = it + 1;
+    if (m < kStepEpsM && deg < kStepEpsDeg) break;
+  }
+  // A view moved further than refinement may move it keeps its solved pose.
+  for (std::size_t k = 0; k < n; ++k) {
+    const Isometry3d change = solved[k].inverse() * poses[k];
+    const double m = change.translation().norm(), deg = rotation_deg(change.linear());
+    if (m > gate || deg > 1.0) {
+      poses[k] = solved[k];
+      ++report.views_held;
+      continue;
+    }
+    report.max_change_m = std::max(report.max_change_m, m);
+    report.max_change_deg = std::max(report.max_change_deg, deg);
+  }
+  if (s.options.mode == AlignmentMode::Cumulative) {
+    const auto was = views_off_tripod(solved, kOnRingDeg, kOnTripodM);
+    const auto now = views_off_tripod(poses, kOnRingDeg, kOnTripodM);
+    if (was && (!now || *now > *was)) {
+      report.undone = true;
+      return;
+    }
+  }
+  for (std::size_t k = 0; k < n; ++k) {
+    result.graph.nodes[k] = poses[k];
+    result.frames[s.registered[k]].T_world_camera_final = poses[k];
+  }
+}
+
+}  // namespace locard::alignment_detail
