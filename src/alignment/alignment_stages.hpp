@@ -6,7 +6,7 @@
 //   propose_loops    loop candidates from pose proximity, ring structure and piece ends (3)
 //   verify_loops     each candidate checked by registration (3)
 //   solve_graph      pose graph over odometry and loop edges, pieces joined (4)
-//   refine_jointly   every overlapping pair registered again, one graph over them all (4b)
+//   refine_jointly   tripod turn: all views moved at once over every overlapping pair (4b)
 //   check_views      every registered view tested against the others' model (5)
 // Each stage reads what the earlier ones wrote and adds its own part; none reaches back.
 #include <locard/alignment/sequential_alignment.hpp>
@@ -67,6 +67,10 @@ void verify_loops(AlignmentState& state);
 void solve_graph(AlignmentState& state);
 void refine_jointly(AlignmentState& state);
 void check_views(AlignmentState& state);
+// The cells of side `cell_size` that a camera-frame cloud's points fall in at pose T (world
+// frame), sorted, each once (view_verification.cpp).
+std::vector<std::uint64_t> world_cells(const PointCloud& cloud, const Isometry3d& T,
+                                       double cell_size);
 // Smallest eigenvalue of a camera-frame cloud's per-point normal matrix (ViewCheckOptions'
 // "constraint"): rotation about the camera centre only, or all six degrees of freedom.
 double pose_constraint(const PointCloud& cloud, bool rotation_only);

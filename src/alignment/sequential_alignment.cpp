@@ -138,10 +138,7 @@ AlignmentResult align_sequence(const RgbdSequence& sequence, const AlignmentOpti
   timings.pose_graph_s = seconds_since(t0);
 
   t0 = Clock::now();
-  // A tripod turn only for now: on video the pairs of a long sequence cost more than the
-  // 30 s budget allows and the gain is not yet measured there.
-  if (o.joint_refinement && o.mode == AlignmentMode::Cumulative)
-    alignment_detail::refine_jointly(state);
+  if (o.joint_refinement) alignment_detail::refine_jointly(state);
   timings.refinement_s = seconds_since(t0);
 
   t0 = Clock::now();

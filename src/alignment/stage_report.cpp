@@ -234,7 +234,7 @@ void write_stage_report_json(const std::filesystem::path& path, const AlignmentR
                      {"max_odometry_bend_m", pg.max_odometry_bend_m},
                      {"rejected_edges", pg.rejected.size()}};
   const JointRefinement& jr = result.refinement;
-  j["joint_refinement"] = {{"run", result.options.joint_refinement},
+  j["joint_refinement"] = {{"run", jr.ran},
                            {"pairs", jr.pairs},
                            {"iterations", jr.iterations},
                            {"correspondences", jr.correspondences},

@@ -302,6 +302,20 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
 
 }  // namespace
 
+std::vector<std::uint64_t> world_cells(const PointCloud& cloud, const Isometry3d& T,
+                                       double cell_size) {
+  const float inverse = static_cast<float>(1.0 / cell_size);
+  const Eigen::Isometry3f Tf = T.cast<float>();
+  std::vector<std::uint64_t> cells;
+  for (const Eigen::Vector3f& p : cloud.positions) {
+    const Eigen::Vector3f q = Tf * p;
+    if (q.allFinite()) cells.push_back(voxel_key(q, inverse));
+  }
+  std::sort(cells.begin(), cells.end());
+  cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
+  return cells;
+}
+
 // Smallest eigenvalue of the per-point normal matrix of the view's own points: rotation about
 // the camera centre only (tripod), or all six degrees of freedom with the rotation scaled by
 // the RMS lever arm (video).
@@ -382,16 +396,8 @@ void check_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
 
 // The cells (twice the voxel size) a view's points fall in, sorted, each once.
 std::vector<std::uint64_t> view_cells(const AlignmentState& s, std::size_t i) {
-  const float inverse = static_cast<float>(0.5 / s.options.voxel_size);
-  const Eigen::Isometry3f T = s.result.frames[i].T_world_camera_final->cast<float>();
-  std::vector<std::uint64_t> cells;
-  for (const Eigen::Vector3f& p : s.prepared[i].cloud.positions) {
-    const Eigen::Vector3f q = T * p;
-    if (q.allFinite()) cells.push_back(voxel_key(q, inverse));
-  }
-  std::sort(cells.begin(), cells.end());
-  cells.erase(std::unique(cells.begin(), cells.end()), cells.end());
-  return cells;
+  return world_cells(s.prepared[i].cloud, *s.result.frames[i].T_world_camera_final,
+                     2.0 * s.options.voxel_size);
 }
 
 // Links between verified views (ViewCheckOptions::min_link_overlap): the share of a sample of

@@ -260,6 +260,7 @@ struct AlignmentTimings {
 
 // What the joint refinement (step 4b) did.
 struct JointRefinement {
+  bool ran = false;                 // a tripod turn with the stage on
   std::size_t pairs = 0;            // overlapping view pairs in the problem
   int iterations = 0;               // Gauss-Newton steps
   std::size_t correspondences = 0;  // in the last step
