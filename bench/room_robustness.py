@@ -71,7 +71,8 @@ def evaluate(scan, out):
     # a wrong view among them that the others do not outvote shows as silent.
     vouched = [(f, T, G) for f, T, G in placed if f.get('verified')]
     result = {'views': len(views), 'registered': len(placed), 'good': 0, 'flagged': 0,
-              'silent': 0, 'ate_mm': float('nan'), 'worst_deg': 0.0, 'worst_mm': 0.0}
+              'silent': 0, 'ate_mm': float('nan'), 'worst_deg': 0.0, 'worst_mm': 0.0,
+              'flag_reasons': {}, 'flagged_but_good': 0}
     result['flagged'] = sum(1 for f, T, _ in views if T is None or not f.get('verified'))
     if len(vouched) < 2:
         return result
@@ -93,7 +94,33 @@ def evaluate(scan, out):
         elif dt > 50 or dr > 2:
             result['silent'] += 1
     result['ate_mm'] = float(np.sqrt(np.mean(np.square(errors))))
+    # The flagged views, judged the same way: a flag on a view that is in fact within the bar
+    # costs the room its verified share; the reasons say which check raised it.
+    for f, T, G in placed:
+        if f.get('verified'):
+            continue
+        dt = float(np.linalg.norm(R @ T[:3, 3] + t - G[:3, 3])) * 1000
+        dr = rotation_deg(G[:3, :3].T @ (R @ T[:3, :3]))
+        good = dt <= 10 and dr <= 0.5
+        result['flagged_but_good'] += good
+        for reason in reason_kinds(f.get('check', {}).get('reason', '') or f.get('reason', '')):
+            tally = result['flag_reasons'].setdefault(reason, [0, 0])
+            tally[0] += 1
+            tally[1] += good
     return result
+
+
+REASON_KINDS = [('geometry does not fix', 'constraint'), ('other views place it', 'correction'),
+                ('overlap with the other', 'overlap'), ('sees through', 'free-space'),
+                ("tripod's centre", 'tripod-offset'), ('pan axis', 'off-axis'),
+                ("tripod's head", 'tripod-residual'), ('block of', 'block'),
+                ('does not register', 'no-icp'), ('no other view', 'alone'),
+                ('piece of its own', 'alone')]
+
+
+def reason_kinds(reason):
+    kinds = {kind for text, kind in REASON_KINDS if text in reason}
+    return sorted(kinds) or (['other'] if reason else ['none'])
 
 
 def seeds_of(text):
@@ -143,8 +170,11 @@ def main():
         print(f"seed {seed:3d} {row['sensor']:9s} rings {str(row['rings']):14s} exit {r.returncode} "
               f"{'OK  ' if row['success'] else 'FAIL'} ATE {row['ate_mm']:8.2f} mm  "
               f"verified-worst {row['worst_mm']:7.1f} mm {row['worst_deg']:6.2f} deg  "
-              f"flagged {row['flagged']:3d}/{row['views']:3d}  silent {row['silent']:3d}  "
-              f"{seconds:5.1f} s", flush=True)
+              f"flagged {row['flagged']:3d}/{row['views']:3d} ({row['flagged_but_good']} good)  "
+              f"silent {row['silent']:3d}  {seconds:5.1f} s", flush=True)
+        print('          flags: ' + ', '.join(f'{k} {v[0]} ({v[1]} good)'
+                                            for k, v in sorted(row['flag_reasons'].items())),
+              flush=True)
         if not a.keep:
             shutil.rmtree(scan, ignore_errors=True)
             shutil.rmtree(out, ignore_errors=True)
