@@ -20,11 +20,29 @@
 //   d r / d xi_i = [ (p x n)^T  n^T ],   d r / d xi_j = -[ (q x n)^T  n^T ].
 // w_k is Tukey's weight (scale half a voxel). A residual only pushes along its normal, so a
 // wall pair pins the wall's normal and nothing else: no false constraint along the slide.
+// The tripod: on a turn the camera centres lie on the head's nodal model c_i = P + R_i d
+// (tripod_fit.hpp) up to the tripod's play. Surfaces fix most of a view's position, but not
+// all: a view of a wall and the floor leaves its slide along both free, and two pitch rings
+// that share only walls leave their heights free - tracking leaves there whatever the model
+// it held the views to said, and a nodal offset fitted a few centimetres wrong sets the rings
+// a centimetre or two apart. So the model is part of the problem, P and d unknowns beside the
+// views, each view's centre pulled to it:
+//
+//   + kTripod sum_i |c_i(xi_i) - P - R_i(xi_i) d|^2 + kNodalRidge |d|^2
+//
+// with dr/dv = I, dr/domega = -[c_i - o - R_i d]x, dr/dP = -I, dr/dd = -R_i (o the centre).
+// It weighs ten correspondences a view - a few hundred correspondences of one surface carry
+// far less than their count (neighbouring residuals share their noise: the voxel grid, the
+// normals) but far more than ten - so it decides what no surface fixes and little else; the
+// ridge picks the smallest nodal offset where the rings do not fix it (one ring: the pivot's
+// height and d's component along the axis are the same thing). A view more than kOnTripodM
+// off the model at the solved poses is not pulled (a view off the tripod is for the
+// self-check to judge, not for this term to drag).
 // The prior lambda |S (xi_i + e_i)|^2, e_i the view's offset from its solved pose and S the
-// rotation scaled by the points' RMS lever, holds what no pair fixes - the gauge, and a
-// bare-wall view's slide - at the solved pose; it is weak enough to bias a direction that a
-// few hundred residuals fix by a few per cent. Gauss-Newton steps with correspondences found again each time,
-// until the largest step is below 0.05 mm and 0.003 degree.
+// rotation scaled by the points' RMS lever, holds the gauge and a bare-wall view's roll at the
+// solved pose; it is weak enough to bias a direction that a few hundred residuals fix by a few
+// per cent. Gauss-Newton steps with correspondences found again each time, until the largest
+// step is below 0.05 mm and 0.003 degree.
 //
 // Safety. Refinement corrects and never re-registers: a view that would move more than a
 // voxel or a degree keeps its solved pose, and on a tripod turn a result that leaves more
@@ -65,9 +83,23 @@ constexpr std::size_t kSourceStride = 2;
 // that fewer than this many residuals fix stays where the pose graph put it (compare the
 // thousands a seen surface gives).
 constexpr double kPrior = 2.0;
+// The translation's share of that prior: the gauge only, the tripod term holds the rest.
+constexpr double kTranslationPrior = 0.1;
+// Weight of a view's centre on the nodal model, and of the ridge on the nodal offset, in
+// correspondences per axis (above).
+constexpr double kTripod = 10.0;
+constexpr double kNodalRidge = 1.0;
 // Normals of a correspondence further apart than this are not the same surface (the two
 // sides of a thin object).
 constexpr double kMinNormalCos = 0.7;  // 45 degrees
+
+// The head's nodal model (P world, d camera frame) and which views it pulls.
+struct Tripod {
+  bool used = false;
+  Eigen::Vector3d pivot = Eigen::Vector3d::Zero();
+  Eigen::Vector3d offset = Eigen::Vector3d::Zero();
+  std::vector<char> pulls;
+};
 
 struct View {
   const PointCloud* cloud = nullptr;  // camera frame, with normals
@@ -169,6 +201,47 @@ Isometry3d perturbed(const Isometry3d& T, const Vector6d& xi, const Eigen::Vecto
   return D * T;
 }
 
+// The nodal-model term (above) into the normal equations: the tripod's unknowns (P, d) follow
+// the views' 6n.
+void add_tripod_term(const std::vector<Isometry3d>& poses, const Eigen::Vector3d& centre,
+                     const Tripod& tripod, std::vector<Eigen::Triplet<double>>& entries,
+                     Eigen::VectorXd& rhs) {
+  const std::size_t n = poses.size();
+  const int model = static_cast<int>(6 * n);
+  Eigen::Matrix<double, 6, 6> H_model = Eigen::Matrix<double, 6, 6>::Zero();
+  H_model.bottomRightCorner<3, 3>().diagonal().setConstant(kNodalRidge);
+  rhs.segment<3>(model + 3) -= kNodalRidge * tripod.offset;
+  for (std::size_t i = 0; i < n; ++i) {
+    if (!tripod.pulls[i]) continue;
+    const Eigen::Matrix3d& R = poses[i].linear();
+    const Eigen::Vector3d c = poses[i].translation();
+    const Eigen::Vector3d Rd = R * tripod.offset;
+    const Eigen::Vector3d r = c - tripod.pivot - Rd;
+    // Jacobian [view (omega, v) | model (P, d)], 3 x 12.
+    Eigen::Matrix<double, 3, 12> J;
+    const Eigen::Vector3d a = c - centre - Rd;
+    J.block<3, 3>(0, 0) << 0.0, a.z(), -a.y(), -a.z(), 0.0, a.x(), a.y(), -a.x(), 0.0;
+    J.block<3, 3>(0, 3).setIdentity();
+    J.block<3, 3>(0, 6) = -Eigen::Matrix3d::Identity();
+    J.block<3, 3>(0, 9) = -R;
+    const Matrix12d H = kTripod * J.transpose() * J;
+    const Vector12d g = kTripod * J.transpose() * r;
+    const int base[2] = {static_cast<int>(6 * i), model};
+    for (int bi = 0; bi < 2; ++bi)
+      for (int bj = 0; bj < 2; ++bj) {
+        if (bi == 1 && bj == 1) continue;  // the model's own block is summed below
+        for (int row = 0; row < 6; ++row)
+          for (int col = 0; col < 6; ++col)
+            entries.emplace_back(base[bi] + row, base[bj] + col, H(6 * bi + row, 6 * bj + col));
+      }
+    H_model += H.bottomRightCorner<6, 6>();
+    rhs.segment<6>(base[0]) -= g.head<6>();
+    rhs.segment<6>(model) -= g.tail<6>();
+  }
+  for (int row = 0; row < 6; ++row)
+    for (int col = 0; col < 6; ++col) entries.emplace_back(model + row, model + col, H_model(row, col));
+}
+
 struct Step {
   double max_m = 0.0, max_deg = 0.0;  // the largest move of a view
   std::size_t correspondences = 0;
@@ -176,9 +249,9 @@ struct Step {
 
 // One Gauss-Newton step over all views.
 Step step(const std::vector<View>& views, std::vector<Isometry3d>& poses,
-                               const std::vector<Isometry3d>& solved,
-                               const std::vector<std::pair<std::size_t, std::size_t>>& pairs,
-                               double gate) {
+          const std::vector<Isometry3d>& solved,
+          const std::vector<std::pair<std::size_t, std::size_t>>& pairs, double gate,
+          Tripod& tripod) {
   const std::size_t n = poses.size();
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (const Isometry3d& T : poses) centre += T.translation();
@@ -200,7 +273,8 @@ Step step(const std::vector<View>& views, std::vector<Isometry3d>& poses,
   lever2 = sampled ? lever2 / static_cast<double>(sampled) : 1.0;
   Step done;
   std::vector<Eigen::Triplet<double>> entries;
-  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(6 * n));
+  const std::size_t unknowns = 6 * n + (tripod.used ? 6 : 0);
+  Eigen::VectorXd rhs = Eigen::VectorXd::Zero(static_cast<Eigen::Index>(unknowns));
   for (std::size_t k = 0; k < pairs.size(); ++k) {
     if (counts[k] < 6) continue;
     done.correspondences += counts[k];
@@ -222,12 +296,14 @@ Step step(const std::vector<View>& views, std::vector<Isometry3d>& poses,
     Vector6d e;
     e << aa.angle() * aa.axis(), D.translation() - centre + D.linear() * centre;
     for (int r = 0; r < 6; ++r) {
-      const double w = r < 3 ? kPrior * lever2 : kPrior;
+      const double w = r < 3 ? kPrior * lever2 : (tripod.used ? kTranslationPrior : kPrior);
       entries.emplace_back(static_cast<int>(6 * i) + r, static_cast<int>(6 * i) + r, w);
       rhs(static_cast<Eigen::Index>(6 * i) + r) -= w * e(r);
     }
   }
-  Eigen::SparseMatrix<double> A(static_cast<Eigen::Index>(6 * n), static_cast<Eigen::Index>(6 * n));
+  if (tripod.used) add_tripod_term(poses, centre, tripod, entries, rhs);
+  const auto size = static_cast<Eigen::Index>(unknowns);
+  Eigen::SparseMatrix<double> A(size, size);
   A.setFromTriplets(entries.begin(), entries.end());
   const Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver(A);
   if (solver.info() != Eigen::Success) return {};
@@ -239,7 +315,27 @@ Step step(const std::vector<View>& views, std::vector<Isometry3d>& poses,
     done.max_m = std::max(done.max_m, xi.tail<3>().norm());
     poses[i] = perturbed(poses[i], xi, centre);
   }
+  if (tripod.used) {
+    tripod.pivot += x.segment<3>(static_cast<Eigen::Index>(6 * n));
+    tripod.offset += x.segment<3>(static_cast<Eigen::Index>(6 * n + 3));
+  }
   return done;
+}
+
+// The nodal model the term starts from: the least-squares fit at the solved poses (the term's
+// steps move it with the views); the views within kOnTripodM of it are pulled. Unused with
+// fewer than three such views.
+Tripod nodal_model(const std::vector<Isometry3d>& poses) {
+  Tripod tripod;
+  const NodalFit fit = fit_nodal(poses);
+  tripod.pivot = fit.pivot;
+  tripod.offset = fit.offset;
+  tripod.pulls.resize(poses.size());
+  std::size_t pulled = 0;
+  for (std::size_t i = 0; i < poses.size(); ++i)
+    pulled += tripod.pulls[i] = fit.residual_m[i] < kOnTripodM;
+  tripod.used = pulled >= 3;
+  return tripod;
 }
 
 }  // namespace
@@ -264,8 +360,9 @@ void refine_jointly(AlignmentState& s) {
     views[k].tree = KdTree(views[k].cloud->positions);
   });
   const double gate = s.options.voxel_size;
+  Tripod tripod = nodal_model(solved);
   for (int it = 0; it < kMaxIterations; ++it) {
-    const Step done = step(views, poses, solved, pairs, gate);
+    const Step done = step(views, poses, solved, pairs, gate, tripod);
     report.correspondences = done.correspondences;
     report.iterations = it + 1;
     if (done.max_m < kStepEpsM && done.max_deg < kStepEpsDeg) break;
