@@ -379,8 +379,12 @@ void refine_jointly(AlignmentState& s) {
     report.max_change_m = std::max(report.max_change_m, m);
     report.max_change_deg = std::max(report.max_change_deg, deg);
   }
-  const auto was = views_off_tripod(solved, kOnRingDeg, kOnTripodM);
-  const auto now = views_off_tripod(poses, kOnRingDeg, kOnTripodM);
+  // Off the tripod here means off the ring, or off the nodal model by more than the self-check
+  // allows: within that, refinement moves a centre to where its surfaces put it, which a
+  // tripod's play may hold a couple of centimetres from the model (kOnTripodM would undo that).
+  const double off_model_m = s.options.view_check.max_tripod_residual_m;
+  const auto was = views_off_tripod(solved, kOnRingDeg, off_model_m);
+  const auto now = views_off_tripod(poses, kOnRingDeg, off_model_m);
   if (was && (!now || *now > *was)) {
     report.undone = true;
     return;
