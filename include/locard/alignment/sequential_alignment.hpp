@@ -52,8 +52,10 @@
 //     its loop edges are reported rejected (they slide along walls; the tripod does not).
 //  4b. Joint refinement (tripod turn; joint_refinement.cpp): every view moved at once by one
 //     least-squares problem over the point-to-plane residuals of all overlapping pairs (up to
-//     8 partners a view), with a weak prior at the solved pose for what no pair fixes; views
-//     that would move more than a voxel or a degree keep their solved pose.
+//     8 partners a view) and the tripod's nodal model (pivot and offset solved with the views,
+//     each centre pulled to it: what no surface fixes - a wall view's slide, the height of
+//     rings that share only walls - the tripod does), a weak prior at the solved pose for the
+//     gauge; views that would move more than a voxel or a degree keep their solved pose.
 // Randomness (RANSAC) is seeded by `seed`; the same input and options give the same result.
 
 #include <locard/alignment/pose_graph.hpp>
