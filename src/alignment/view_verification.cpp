@@ -18,6 +18,9 @@
 #include <unordered_map>
 
 namespace locard::alignment_detail {
+
+double pan_constraint(const PointCloud& cloud, const Eigen::Vector3d& axis);  // below
+
 namespace {
 
 // One world voxel of the multi-view model: sums for the centroid and normal, and which views
@@ -143,7 +146,13 @@ double free_space_share(const AlignmentState& s, std::size_t i, const OthersMode
 // from the nodal model (tripod_fit.hpp); NaN where the views make no tripod fit.
 struct TripodConsistency {
   std::vector<double> off_axis_deg, residual_m;
+  std::optional<Eigen::Vector3d> axis;  // the pan axis, world frame
+  // The tripod's play: RMS distance from the nodal model of the views whose own surfaces fix
+  // all six degrees of freedom (infinite with fewer than kPlayViews of them).
+  double play_m = std::numeric_limits<double>::infinity();
 };
+
+constexpr std::size_t kPlayViews = 5;
 
 TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<std::size_t>& views) {
   TripodConsistency out;
@@ -161,6 +170,17 @@ TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<
   const std::optional<TripodFit> fit = fit_tripod(R, fit_options);
   if (!fit) return out;
   const NodalFit nodal = fit_nodal(T);
+  out.axis = fit->axis;
+  double sum2 = 0.0;
+  std::size_t fixed = 0;
+  for (std::size_t k = 0; k < views.size(); ++k) {
+    if (pose_constraint(s.prepared[views[k]].cloud, false) < s.options.view_check.min_constraint_6dof ||
+        nodal.residual_m[k] > s.options.view_check.max_tripod_residual_m)
+      continue;
+    sum2 += nodal.residual_m[k] * nodal.residual_m[k];
+    ++fixed;
+  }
+  if (fixed >= kPlayViews) out.play_m = std::sqrt(sum2 / static_cast<double>(fixed));
   for (std::size_t k = 0; k < views.size(); ++k) {
     out.off_axis_deg[views[k]] = fit->off_axis_deg[k];
     out.residual_m[views[k]] = nodal.residual_m[k];
@@ -203,7 +223,8 @@ CheckBox check_box(const AlignmentState& s, std::size_t i) {
 
 ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_t i,
                      const Eigen::Vector3d& tripod_centre, double off_axis_deg,
-                     double tripod_residual_m) {
+                     double tripod_residual_m, const std::optional<Eigen::Vector3d>& pan_axis,
+                     double tripod_play_m) {
   const AlignmentOptions& o = s.options;
   const ViewCheckOptions& limits = o.view_check;
   const FrameAlignment& f = s.result.frames[i];
@@ -214,6 +235,18 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   c.constraint = pose_constraint(cloud, o.mode == AlignmentMode::Cumulative);
   c.off_axis_deg = off_axis_deg;
   c.tripod_residual_m = tripod_residual_m;
+  // A tripod turn's view whose surfaces leave a tilt or roll free (a bare wall: the turn about
+  // its normal) but fix the pan: the tripod holds the rest - the ring its tilt and roll, the
+  // head its centre. It is checked as the tripod moves it (pan free, the rest held), judged by
+  // the pan's constraint, and held to the ring more tightly than a view that fixes itself.
+  // Only as good as the tripod's play, then: allowed when a slide of 2.5 sigma along two free
+  // axes stays within half the correction a view may need.
+  const bool play_small = 2.5 * std::sqrt(2.0 / 3.0) * tripod_play_m <= 0.5 * limits.max_correction_m;
+  const bool held_by_tripod =
+      o.mode == AlignmentMode::Cumulative && pan_axis && play_small && std::isfinite(off_axis_deg) &&
+      std::isfinite(tripod_residual_m) && c.constraint < limits.min_constraint &&
+      pan_constraint(cloud, T.linear().transpose() * *pan_axis) >= limits.min_constraint;
+  if (held_by_tripod) c.constraint = pan_constraint(cloud, T.linear().transpose() * *pan_axis);
 
   const CheckBox box = check_box(s, i);
   const OthersModel others = others_model(model, i, box.lo, box.hi);
@@ -229,6 +262,16 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   icp_options.min_fitness = 0.0;
   icp_options.max_correspondence_distance = 2.0 * o.voxel_size;
   icp_options.convergence.max_iterations = 20;
+  if (held_by_tripod) {
+    IcpPosePrior tripod;
+    tripod.T_target_source = T;
+    tripod.centre_sigma_m = kOnTripodM;
+    tripod.rotation_sigma_deg = 30.0;  // the pan: as good as free
+    tripod.per_correspondence = true;
+    tripod.hinge_axis = *pan_axis;
+    tripod.off_axis_sigma_deg = 0.1;
+    icp_options.pose_prior = tripod;
+  }
   IcpResult r = icp(source, others.surface, T, icp_options);
   c.overlap = r.fitness;
   if (r.success) {
@@ -264,6 +307,10 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
     reasons.push_back(fmt::format("its camera stands {:.2f} m from the tripod's centre (allowed "
                                   "{:.2f} m)",
                                   offset, limits.max_tripod_offset_m));
+  if (held_by_tripod && c.off_axis_deg > kOnRingDeg)
+    reasons.push_back(fmt::format("its surfaces leave its tilt or roll to the tripod, and it stands "
+                                  "{:.2f} deg off its ring (allowed {:.1f} deg for such a view)",
+                                  c.off_axis_deg, kOnRingDeg));
   if (c.off_axis_deg > limits.max_off_axis_deg)
     reasons.push_back(fmt::format("tilted or rolled {:.2f} deg off the tripod's pan axis as its "
                                   "ring sees it (allowed {:.1f} deg)",
@@ -319,13 +366,17 @@ std::vector<std::uint64_t> world_cells(const PointCloud& cloud, const Isometry3d
 // Smallest eigenvalue of the per-point normal matrix of the view's own points: rotation about
 // the camera centre only (tripod), or all six degrees of freedom with the rotation scaled by
 // the RMS lever arm (video).
-double pose_constraint(const PointCloud& cloud, bool rotation_only) {
-  if (!cloud.has_normals() || cloud.empty()) return 0.0;
+namespace {
+
+// Per-point normal matrix of a view's own points, J = [p x n / lever, n] (camera frame, the
+// rotation scaled by the RMS lever arm), averaged; zero without normals.
+Eigen::Matrix<double, 6, 6> normal_information(const PointCloud& cloud) {
+  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
+  if (!cloud.has_normals() || cloud.empty()) return A;
   double lever2 = 0.0;
   for (const Eigen::Vector3f& p : cloud.positions) lever2 += p.squaredNorm();
   lever2 /= static_cast<double>(cloud.size());
   const double lever = std::sqrt(std::max(lever2, 1e-12));
-  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
   for (std::size_t k = 0; k < cloud.size(); ++k) {
     const Eigen::Vector3d p = cloud.positions[k].cast<double>();
     const Eigen::Vector3d n = cloud.normals[k].cast<double>();
@@ -334,6 +385,20 @@ double pose_constraint(const PointCloud& cloud, bool rotation_only) {
     A += j * j.transpose();
   }
   A /= static_cast<double>(cloud.size());
+  return A;
+}
+
+}  // namespace
+
+// How firmly a view's own points fix its turn about `axis` (camera frame, unit): a tripod's
+// pan, with tilt and roll held by the ring.
+double pan_constraint(const PointCloud& cloud, const Eigen::Vector3d& axis) {
+  return axis.dot(normal_information(cloud).topLeftCorner<3, 3>() * axis);
+}
+
+double pose_constraint(const PointCloud& cloud, bool rotation_only) {
+  if (!cloud.has_normals() || cloud.empty()) return 0.0;
+  const Eigen::Matrix<double, 6, 6> A = normal_information(cloud);
   if (rotation_only) {
     const Eigen::Matrix3d R = A.topLeftCorner<3, 3>();
     return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(R).eigenvalues()(0);
@@ -376,7 +441,8 @@ void check_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
       if (!due[k]) return;
       s.result.frames[views[k]].check = check_view(s, model, views[k], tripod_centre,
                                                    tripod.off_axis_deg[views[k]],
-                                                   tripod.residual_m[views[k]]);
+                                                   tripod.residual_m[views[k]], tripod.axis,
+                                                   tripod.play_m);
     });
     std::vector<std::size_t> changed;
     for (std::size_t k = 0; k < views.size(); ++k) {
