@@ -94,7 +94,12 @@ enum class AlignmentMode { Cumulative, Odometry };
 //    plane, or two planes meeting along a line, give under 0.001. Rotation alone (three
 //    directions) is held to min_constraint (3 % of the points); six directions share the
 //    same points, so real clutter seen hand-held - a desk, a kitchen - lies at 0.007-0.017
-//    (TUM fr2/fr3, 7-Scenes), and video is held to min_constraint_6dof (1 %).
+//    (TUM fr2/fr3, 7-Scenes), and video is held to min_constraint_6dof (1 %). On a tripod
+//    turn a view that fixes its pan but not its tilt or roll (a bare wall) is held by the
+//    tripod instead: its constraint is the pan's, its check's ICP turns it only about the pan
+//    axis, and it must stand within 0.5 degree of its ring - allowed only where the tripod's
+//    measured play (views fixing all six directions, off the nodal model) keeps its slide
+//    within 1 cm at 2.5 sigma.
 //  - tripod (cumulative mode, the tripod-turn scheme): the camera centre lies within
 //    max_tripod_offset_m of the median centre of all views; a view placed elsewhere is wrong
 //    whatever its overlap (a symmetric room fits itself turned by 180 degrees). And the pan
