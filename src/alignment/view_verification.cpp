@@ -18,10 +18,43 @@
 #include <unordered_map>
 
 namespace locard::alignment_detail {
-
-double pan_constraint(const PointCloud& cloud, const Eigen::Vector3d& axis);  // below
-
 namespace {
+
+using Matrix6d = Eigen::Matrix<double, 6, 6>;
+
+// Per-point normal matrix of a view's own points, J = [p x n / lever, n] (camera frame, the
+// rotation scaled by the RMS lever arm), averaged; zero without normals.
+Matrix6d normal_information(const PointCloud& cloud) {
+  Matrix6d A = Matrix6d::Zero();
+  if (!cloud.has_normals() || cloud.empty()) return A;
+  double lever2 = 0.0;
+  for (const Eigen::Vector3f& p : cloud.positions) lever2 += p.squaredNorm();
+  lever2 /= static_cast<double>(cloud.size());
+  const double lever = std::sqrt(std::max(lever2, 1e-12));
+  for (std::size_t k = 0; k < cloud.size(); ++k) {
+    const Eigen::Vector3d p = cloud.positions[k].cast<double>();
+    const Eigen::Vector3d n = cloud.normals[k].cast<double>();
+    Eigen::Matrix<double, 6, 1> j;
+    j << p.cross(n) / lever, n;
+    A += j * j.transpose();
+  }
+  A /= static_cast<double>(cloud.size());
+  return A;
+}
+
+// Its smallest eigenvalue: over the rotation only (tripod) or all six directions (video).
+double weakest_direction(const Matrix6d& A, bool rotation_only) {
+  if (rotation_only)
+    return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(A.topLeftCorner<3, 3>()).eigenvalues()(0);
+  return Eigen::SelfAdjointEigenSolver<Matrix6d>(A).eigenvalues()(0);
+}
+
+// How firmly it fixes the turn about `axis` (camera frame, unit): a tripod's pan, with tilt
+// and roll held by the ring.
+double turn_constraint(const Matrix6d& A, const Eigen::Vector3d& axis) {
+  return axis.dot(A.topLeftCorner<3, 3>() * axis);
+}
+
 
 // One world voxel of the multi-view model: sums for the centroid and normal, and which views
 // saw it (a 64-bit Bloom mask of view ids: "contains" may say yes for another view with the
@@ -232,7 +265,8 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   const Isometry3d& T = *f.T_world_camera_final;
   ViewCheck c;
   c.checked = true;
-  c.constraint = pose_constraint(cloud, o.mode == AlignmentMode::Cumulative);
+  const Matrix6d information = normal_information(cloud);
+  c.constraint = weakest_direction(information, o.mode == AlignmentMode::Cumulative);
   c.off_axis_deg = off_axis_deg;
   c.tripod_residual_m = tripod_residual_m;
   // A tripod turn's view whose surfaces leave a tilt or roll free (a bare wall: the turn about
@@ -242,11 +276,13 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   // Only as good as the tripod's play, then: allowed when a slide of 2.5 sigma along two free
   // axes stays within half the correction a view may need.
   const bool play_small = 2.5 * std::sqrt(2.0 / 3.0) * tripod_play_m <= 0.5 * limits.max_correction_m;
+  const double pan = pan_axis ? turn_constraint(information, T.linear().transpose() * *pan_axis)
+                             : 0.0;
   const bool held_by_tripod =
-      o.mode == AlignmentMode::Cumulative && pan_axis && play_small && std::isfinite(off_axis_deg) &&
+      o.mode == AlignmentMode::Cumulative && play_small && std::isfinite(off_axis_deg) &&
       std::isfinite(tripod_residual_m) && c.constraint < limits.min_constraint &&
-      pan_constraint(cloud, T.linear().transpose() * *pan_axis) >= limits.min_constraint;
-  if (held_by_tripod) c.constraint = pan_constraint(cloud, T.linear().transpose() * *pan_axis);
+      pan >= limits.min_constraint;
+  if (held_by_tripod) c.constraint = pan;
 
   const CheckBox box = check_box(s, i);
   const OthersModel others = others_model(model, i, box.lo, box.hi);
@@ -366,44 +402,8 @@ std::vector<std::uint64_t> world_cells(const PointCloud& cloud, const Isometry3d
 // Smallest eigenvalue of the per-point normal matrix of the view's own points: rotation about
 // the camera centre only (tripod), or all six degrees of freedom with the rotation scaled by
 // the RMS lever arm (video).
-namespace {
-
-// Per-point normal matrix of a view's own points, J = [p x n / lever, n] (camera frame, the
-// rotation scaled by the RMS lever arm), averaged; zero without normals.
-Eigen::Matrix<double, 6, 6> normal_information(const PointCloud& cloud) {
-  Eigen::Matrix<double, 6, 6> A = Eigen::Matrix<double, 6, 6>::Zero();
-  if (!cloud.has_normals() || cloud.empty()) return A;
-  double lever2 = 0.0;
-  for (const Eigen::Vector3f& p : cloud.positions) lever2 += p.squaredNorm();
-  lever2 /= static_cast<double>(cloud.size());
-  const double lever = std::sqrt(std::max(lever2, 1e-12));
-  for (std::size_t k = 0; k < cloud.size(); ++k) {
-    const Eigen::Vector3d p = cloud.positions[k].cast<double>();
-    const Eigen::Vector3d n = cloud.normals[k].cast<double>();
-    Eigen::Matrix<double, 6, 1> j;
-    j << p.cross(n) / lever, n;
-    A += j * j.transpose();
-  }
-  A /= static_cast<double>(cloud.size());
-  return A;
-}
-
-}  // namespace
-
-// How firmly a view's own points fix its turn about `axis` (camera frame, unit): a tripod's
-// pan, with tilt and roll held by the ring.
-double pan_constraint(const PointCloud& cloud, const Eigen::Vector3d& axis) {
-  return axis.dot(normal_information(cloud).topLeftCorner<3, 3>() * axis);
-}
-
 double pose_constraint(const PointCloud& cloud, bool rotation_only) {
-  if (!cloud.has_normals() || cloud.empty()) return 0.0;
-  const Eigen::Matrix<double, 6, 6> A = normal_information(cloud);
-  if (rotation_only) {
-    const Eigen::Matrix3d R = A.topLeftCorner<3, 3>();
-    return Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(R).eigenvalues()(0);
-  }
-  return Eigen::SelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>>(A).eigenvalues()(0);
+  return weakest_direction(normal_information(cloud), rotation_only);
 }
 
 namespace {
