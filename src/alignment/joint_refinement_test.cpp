@@ -4,7 +4,8 @@
 // before this stage). Refinement must take out the rotation drift and most of the centre
 // error (the bar is ATE <= 3 mm, every view within 0.5 degree / 1 cm of the truth after
 // the best rigid fit), and must not spoil a turn that is already right. Judged over the views the self-check then verifies: a bare-wall
-// view's slide is fixed by nothing, refinement holds it only weakly, and the check flags it.
+// view's slide is fixed by no surface, refinement leaves it to the tripod's nodal model, and
+// the check flags it unless the tripod's play is small.
 #include "alignment/alignment_stages.hpp"
 
 #include <locard/io/rgbd_sequence.hpp>
