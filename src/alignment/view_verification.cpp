@@ -460,10 +460,36 @@ void check_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
   }
 }
 
-// The cells (twice the voxel size) a view's points fall in, sorted, each once.
-std::vector<std::uint64_t> view_cells(const AlignmentState& s, std::size_t i) {
-  return world_cells(s.prepared[i].cloud, *s.result.frames[i].T_world_camera_final,
-                     2.0 * s.options.voxel_size);
+// The cells (twice the voxel size) a view's points fall in, sorted, each once. On a tripod turn
+// only the points of surfaces that a turn about the pan axis moves (normals more than 45
+// degrees from it: walls, the sides of things): a floor or a ceiling lies in the same cells
+// however far a block of views is turned about the axis, so it would link a wrong arc to the
+// model (generated room 41: an arc of the ceiling ring 30 degrees off, linked by the ceiling).
+std::vector<std::uint64_t> view_cells(const AlignmentState& s, std::size_t i,
+                                      const std::optional<Eigen::Vector3d>& pan_axis) {
+  const Isometry3d& T = *s.result.frames[i].T_world_camera_final;
+  const PointCloud& cloud = s.prepared[i].cloud;
+  if (!pan_axis || !cloud.has_normals())
+    return world_cells(cloud, T, 2.0 * s.options.voxel_size);
+  const Eigen::Vector3f axis = (T.linear().transpose() * *pan_axis).cast<float>();
+  std::vector<std::uint32_t> turning;
+  for (std::size_t k = 0; k < cloud.size(); ++k)
+    if (std::abs(cloud.normals[k].dot(axis)) < 0.7f) turning.push_back(static_cast<std::uint32_t>(k));
+  return world_cells(select_points(cloud, turning), T, 2.0 * s.options.voxel_size);
+}
+
+// The pan axis of a tripod turn's verified views (tripod_fit.hpp); none on video or without
+// a fit.
+std::optional<Eigen::Vector3d> pan_axis_of(const AlignmentState& s,
+                                           const std::vector<std::size_t>& views) {
+  if (s.options.mode != AlignmentMode::Cumulative) return std::nullopt;
+  std::vector<Eigen::Matrix3d> R;
+  for (std::size_t i : views) R.push_back(s.result.frames[i].T_world_camera_final->linear());
+  TripodFitOptions fit_options;
+  if (!s.options.ring_sizes.empty()) fit_options.min_inlier_share = 0.0;  // a known turn
+  const std::optional<TripodFit> fit = fit_tripod(R, fit_options);
+  if (!fit) return std::nullopt;
+  return fit->axis;
 }
 
 // Links between verified views (ViewCheckOptions::min_link_overlap): the share of a sample of
@@ -474,7 +500,8 @@ constexpr std::size_t kLinkSample = 400;
 Components linked_blocks(const AlignmentState& s, const std::vector<std::size_t>& verified) {
   const std::size_t m = verified.size();
   std::vector<std::vector<std::uint64_t>> cells(m);
-  tbb::parallel_for(std::size_t{0}, m, [&](std::size_t k) { cells[k] = view_cells(s, verified[k]); });
+  const std::optional<Eigen::Vector3d> axis = pan_axis_of(s, verified);
+  tbb::parallel_for(std::size_t{0}, m, [&](std::size_t k) { cells[k] = view_cells(s, verified[k], axis); });
   std::unordered_map<std::uint64_t, std::vector<std::uint32_t>> seen_by;
   for (std::size_t k = 0; k < m; ++k)
     for (std::uint64_t c : cells[k]) seen_by[c].push_back(static_cast<std::uint32_t>(k));
