@@ -27,6 +27,7 @@ AlignmentOptions default_alignment_options(const SequenceTraits& traits) {
   o.max_depth_m = default_max_depth_m(traits.sensor);
   o.odometry_method =
       traits.color_registered_to_depth ? IcpMethod::Colored : IcpMethod::PointToPlane;
+  o.refinement_color = traits.color_registered_to_depth;
   return o;
 }
 

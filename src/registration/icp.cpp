@@ -6,6 +6,7 @@
 #include <locard/core/kdtree.hpp>
 #include <locard/preprocess/normals.hpp>
 #include <locard/preprocess/voxel_grid.hpp>
+#include <locard/registration/color_gradient.hpp>
 #include <locard/registration/rigid_transform.hpp>
 
 #include <Eigen/Cholesky>
@@ -32,11 +33,6 @@ constexpr double kDegToRad = std::numbers::pi / 180.0;
 // Fixed chunk of the deterministic reductions: the split tree depends only on the point
 // count, so the floating-point sums are the same for any thread count.
 constexpr std::size_t kGrain = 1024;
-
-float intensity_of(const Rgb8& c) {
-  return (static_cast<float>(c.r) + static_cast<float>(c.g) + static_cast<float>(c.b)) /
-         (3.f * 255.f);
-}
 
 // Source: finite points, centred at their centroid (float storage, double arithmetic).
 struct PreparedSource {
@@ -151,42 +147,6 @@ PreparedSource prepare_source(const PointCloud& cloud, const IcpOptions& o) {
   return s;
 }
 
-// Colour gradient d_t of every target point (Park et al. eq. 10, as Open3D's
-// ComputeColorGradient): least squares over the neighbours p_j of t, projected onto the
-// tangent plane, p'_j = p_j - n (n . (p_j - t)):
-//   minimise sum_j (d . (p'_j - t) - (C(p_j) - C(t)))^2 + ((k - 1) n . d)^2,
-// the last term enforcing d . n = 0. Solved through the 3x3 normal equations; fewer than 4
-// neighbours or a singular system give d = 0 (the point then only constrains geometry).
-void compute_color_gradients(PreparedTarget& t, double radius, int max_neighbors) {
-  const auto& pts = t.tree.points();
-  t.gradient.assign(pts.size(), Eigen::Vector3f::Zero());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pts.size(), 256), [&](const auto& r) {
-    std::vector<Neighbor> nbrs;
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      t.tree.hybrid(pts[i], static_cast<float>(radius), max_neighbors, nbrs);
-      if (nbrs.size() < 4) continue;
-      const Eigen::Vector3d p = pts[i].cast<double>();
-      const Eigen::Vector3d n = t.normals[i].cast<double>();
-      const double ci = t.intensity[i];
-      Eigen::Matrix3d AtA = Eigen::Matrix3d::Zero();
-      Eigen::Vector3d Atb = Eigen::Vector3d::Zero();
-      for (const Neighbor& nb : nbrs) {
-        const Eigen::Vector3d pj = pts[nb.index].cast<double>();
-        const Eigen::Vector3d a = pj - n * n.dot(pj - p) - p;  // p'_j - t
-        const double b = t.intensity[nb.index] - ci;
-        AtA.noalias() += a * a.transpose();
-        Atb += a * b;
-      }
-      const Eigen::Vector3d c = static_cast<double>(nbrs.size() - 1) * n;  // constraint row
-      AtA.noalias() += c * c.transpose();
-      const Eigen::LDLT<Eigen::Matrix3d> ldlt(AtA);
-      if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) continue;
-      const Eigen::Vector3d d = ldlt.solve(Atb);
-      if (d.allFinite()) t.gradient[i] = d.cast<float>();
-    }
-  });
-}
-
 PreparedTarget prepare_target(const PointCloud& cloud, const IcpOptions& o) {
   cloud.check_consistent();
   PreparedTarget t;
@@ -226,7 +186,8 @@ PreparedTarget prepare_target(const PointCloud& cloud, const IcpOptions& o) {
   if (color) {
     const double radius = o.color_gradient_radius > 0.0 ? o.color_gradient_radius
                                                         : 2.0 * o.max_correspondence_distance;
-    compute_color_gradients(t, radius, o.color_gradient_max_neighbors);
+    t.gradient = color_gradients(t.tree, t.normals, t.intensity, radius,
+                                 o.color_gradient_max_neighbors);
   }
   return t;
 }

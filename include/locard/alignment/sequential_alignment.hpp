@@ -169,6 +169,10 @@ struct AlignmentOptions {
   // least-squares problem over the point-to-plane residuals of every overlapping pair.
   // Runs on a tripod turn (cumulative mode).
   bool joint_refinement = true;
+  // With a colour term (Park et al. 2017) beside the geometric one: what holds a view on a
+  // textured wall whose geometry leaves its slide free. Only where colour is registered to
+  // depth (a point's colour is then what its depth pixel saw).
+  bool refinement_color = true;
   // Self-check (view_verification.hpp): every registered view is tested against the model of
   // the other views; `align` and `reconstruct` exit with kExitTooFewVerified when fewer than
   // this share of the usable views is verified.
