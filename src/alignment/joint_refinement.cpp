@@ -82,18 +82,22 @@ using Vector12d = Eigen::Matrix<double, 12, 1>;
 // the cost of a long sequence.
 constexpr double kMinPairOverlap = 0.25;
 constexpr std::size_t kMaxPartners = 8;
-// Each step re-finds the correspondences, and along a direction no surface fixes (a bare wall's
-// slide) the new ones' noise moves a view by a fraction of a millimetre a step, a random walk
-// that the tripod term bounds only loosely: a generated plain room refined from its exact poses
-// wanders 1.3 mm ATE in 12 steps, 6.9 mm in 46; a sparser sample (every 4th point) walks
-// further (2.0 mm in 12). So the steps are few and the sample dense. Converged when the largest
-// step of a view is below kStepEpsM and kStepEpsDeg.
-constexpr int kMaxIterations = 12;
-constexpr double kStepEpsM = 5e-5;
-constexpr double kStepEpsDeg = 3e-3;
-// Every kSourceStride-th point of a view is a source point: a pair still has thousands of
-// residuals, and the cost halves.
-constexpr std::size_t kSourceStride = 2;
+// Two passes: a sparse sample of each view's points (every 4th) for the large moves - a block
+// of views that tracking left tens of millimetres off closes by a fraction each step, as the
+// correspondences within a voxel follow it - then a denser one (every 2nd) for the last tenths
+// of a millimetre. Converged when the largest step of a view is below step_eps_m and
+// step_eps_deg. The steps are few because each re-finds the correspondences, and along a
+// direction no surface fixes (a bare wall's slide in a plain room) the new ones' noise moves a
+// view a fraction of a millimetre a step, a random walk the tripod term bounds only loosely:
+// a generated plain room refined from its exact poses wanders 2.8 mm ATE in these 18 steps,
+// 1.3 mm in 12 dense ones, 6 mm in 46; but 12 dense steps leave generated rooms 2 and 46 at
+// 4.0 and 3.7 mm ATE (these passes: 2.1 and 1.5 mm).
+struct Pass {
+  std::size_t source_stride;  // every source_stride-th point of a view is a source point
+  int max_iterations;
+  double step_eps_m, step_eps_deg;
+};
+constexpr Pass kPasses[] = {{4, 12, 1e-4, 3e-3}, {2, 6, 5e-5, 3e-3}};
 // How far refinement may move a view: a block of views that tracking left slid together along a
 // wall is tens of millimetres off (generated room 48: 25 mm), and holding only the views past
 // one voxel split that turn in two (27 views held, ATE 16 mm; 3.8 mm with this limit).
@@ -179,7 +183,7 @@ std::vector<std::pair<std::size_t, std::size_t>> overlapping_pairs(
 // against i's), at the current poses. Returns the number of correspondences.
 std::size_t accumulate_pair(const std::vector<View>& views, const std::vector<Isometry3d>& poses,
                             const Eigen::Vector3d& centre, std::size_t i, std::size_t j,
-                            double gate, Matrix12d& H, Vector12d& g) {
+                            double gate, std::size_t stride, Matrix12d& H, Vector12d& g) {
   H.setZero();
   g.setZero();
   std::size_t count = 0;
@@ -193,7 +197,7 @@ std::size_t accumulate_pair(const std::vector<View>& views, const std::vector<Is
     const PointCloud& ca = *views[a].cloud;
     const PointCloud& cb = *views[b].cloud;
     Neighbor hit;
-    for (std::size_t k = 0; k < ca.size(); k += kSourceStride) {
+    for (std::size_t k = 0; k < ca.size(); k += stride) {
       const Eigen::Vector3d p_b = T_b_a * ca.positions[k].cast<double>();
       if (!views[b].tree.nearest(p_b.cast<float>(), hit, static_cast<float>(gate))) continue;
       const Eigen::Vector3d n_b = cb.normals[hit.index].cast<double>();
@@ -294,7 +298,7 @@ struct Step {
 Step step(const std::vector<View>& views, std::vector<Isometry3d>& poses,
           const std::vector<Isometry3d>& solved,
           const std::vector<std::pair<std::size_t, std::size_t>>& pairs, double gate,
-          Tripod& tripod) {
+          std::size_t stride, Tripod& tripod) {
   const std::size_t n = poses.size();
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (const Isometry3d& T : poses) centre += T.translation();
@@ -304,7 +308,7 @@ Step step(const std::vector<View>& views, std::vector<Isometry3d>& poses,
   std::vector<std::size_t> counts(pairs.size());
   tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t k) {
     counts[k] = accumulate_pair(views, poses, centre, pairs[k].first, pairs[k].second, gate,
-                                H[k], g[k]);
+                                stride, H[k], g[k]);
   });
   // Lever of the rotation damping: RMS distance of the views' points from the centre (a
   // sample of each view).
@@ -410,12 +414,13 @@ void refine_jointly(AlignmentState& s) {
   });
   const double gate = s.options.voxel_size;
   Tripod tripod = nodal_model(solved);
-  for (int it = 0; it < kMaxIterations; ++it) {
-    const Step done = step(views, poses, solved, pairs, gate, tripod);
-    report.correspondences = done.correspondences;
-    report.iterations = it + 1;
-    if (done.max_m < kStepEpsM && done.max_deg < kStepEpsDeg) break;
-  }
+  for (const Pass& pass : kPasses)
+    for (int it = 0; it < pass.max_iterations; ++it) {
+      const Step done = step(views, poses, solved, pairs, gate, pass.source_stride, tripod);
+      report.correspondences = done.correspondences;
+      ++report.iterations;
+      if (done.max_m < pass.step_eps_m && done.max_deg < pass.step_eps_deg) break;
+    }
   // A view moved further than refinement may move it keeps its solved pose.
   for (std::size_t k = 0; k < n; ++k) {
     const double m = translation_difference_m(solved[k], poses[k]);
