@@ -397,6 +397,7 @@ void refine_jointly(AlignmentState& s) {
   const std::size_t n = s.registered.size();
   if (n < 2) return;
   const std::vector<Isometry3d> solved = result.graph.nodes;
+  report.graph_optimum = solved;
   std::vector<Isometry3d> poses = solved;
   const auto pairs = overlapping_pairs(s, poses);
   report.pairs = pairs.size();

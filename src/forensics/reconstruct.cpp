@@ -498,14 +498,20 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
                      : pose_covariances(result.graph, sigmas, ao.pose_graph.fixed_node);
   // A posteriori variance factor (least-squares adjustment): the weighted chi2 of the kept
   // edges over the redundancy (6 per edge - 6 per free node). Above 1, the registrations
-  // disagree more than their stated precision, and every covariance is inflated by it.
+  // disagree more than their stated precision, and every covariance is inflated by it. Judged
+  // at the graph's own optimum: the joint refinement moves the poses off the tracking edges on
+  // purpose (it corrects them), which would read as the edges disagreeing.
   double variance_factor = 1.0;
   {
+    const std::vector<Isometry3d>& judged_at =
+        result.refinement.graph_optimum.size() == result.graph.nodes.size()
+            ? result.refinement.graph_optimum
+            : result.graph.nodes;
     double chi2 = 0.0;
     for (std::size_t e = 0; e < result.graph.edges.size(); ++e) {
       const PoseGraphEdge& edge = result.graph.edges[e];
       const double w = (edge.uncertain ? edge.confidence : 1.0) / (sigmas[e] * sigmas[e]);
-      chi2 += w * edge_chi2(edge, result.graph.nodes);
+      chi2 += w * edge_chi2(edge, judged_at);
     }
     const double redundancy = 6.0 * static_cast<double>(result.graph.edges.size()) -
                               6.0 * static_cast<double>(result.graph.nodes.size() - 1);

@@ -279,6 +279,10 @@ struct JointRefinement {
   double max_change_m = 0.0;        // largest move of a view kept
   double max_change_deg = 0.0;
   bool undone = false;              // moved views off the tripod: the solved poses kept
+  // The pose graph's own optimum (its nodes before this step): where the graph's edges are
+  // judged - the refined poses answer to the joint problem, not to the tracking edges they
+  // correct (reconstruct's a-posteriori variance factor). Empty when the step did not run.
+  std::vector<Isometry3d> graph_optimum;
 };
 
 struct AlignmentResult {
