@@ -128,6 +128,11 @@ TEST(JointRefinement, BringsADisturbedTurnToTheBar) {
 // A textured room: the walls' colour fixes what their geometry leaves free. The same disturbed
 // turn refined with the colour term and without it (as for colour not registered to depth).
 TEST(JointRefinement, ColourHoldsWhatATexturedWallLeavesFree) {
+#if defined(__SANITIZE_ADDRESS__)
+  // Two full refinements: release builds only (the sanitizers run the colour term's code in the
+  // other tests here, where the plain room's colours are registered too).
+  GTEST_SKIP() << "two full refinements: release builds only";
+#endif
   const RgbdSequence seq = generated_turn(1003, sim::SurfaceKind::Textured);
   const std::vector<Isometry3d> start = disturbed(seq, 6.0, 0.3);
   SolvedState with_colour(seq, start), without(seq, start);
