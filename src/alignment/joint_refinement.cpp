@@ -61,6 +61,7 @@
 
 #include <locard/core/kdtree.hpp>
 #include <locard/registration/color_gradient.hpp>
+#include <locard/registration/robust_kernel.hpp>
 
 #include <Eigen/Geometry>
 #include <Eigen/SparseCholesky>
@@ -179,15 +180,32 @@ std::vector<std::pair<std::size_t, std::size_t>> overlapping_pairs(
   return {pairs.begin(), pairs.end()};
 }
 
+// One weighted residual r into a pair's normal equations. It measures along `dir` (world
+// frame, centred) and moves with view a at x_a and against view b at x_b:
+//   J = [ (x_a x dir)^T  dir^T | -(x_b x dir)^T  -dir^T ]   (blocks a and b of the 12).
+void add_residual(int block_a, int block_b, const Eigen::Vector3d& x_a, const Eigen::Vector3d& x_b,
+                  const Eigen::Vector3d& dir, double r, double w, Matrix12d& H, Vector12d& g) {
+  Vector12d J;
+  J.segment<3>(block_a) = x_a.cross(dir);
+  J.segment<3>(block_a + 3) = dir;
+  J.segment<3>(block_b) = -x_b.cross(dir);
+  J.segment<3>(block_b + 3) = -dir;
+  H.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
+  g += w * r * J;
+}
+
 // The normal equations of one pair, both directions (i's points against j's surface and j's
-// against i's), at the current poses. Returns the number of correspondences.
+// against i's), at the current poses: the point-to-plane residual of each correspondence and,
+// where both views carry colour, its colour residual. Returns the number of correspondences.
 std::size_t accumulate_pair(const std::vector<View>& views, const std::vector<Isometry3d>& poses,
                             const Eigen::Vector3d& centre, std::size_t i, std::size_t j,
                             double gate, std::size_t stride, Matrix12d& H, Vector12d& g) {
   H.setZero();
   g.setZero();
   std::size_t count = 0;
-  const double tukey = 0.5 * gate;
+  const RobustKernel geometric{RobustKernelType::Tukey, 0.5 * gate};
+  const RobustKernel colour{RobustKernelType::Tukey, kColorTukey};
+  const bool with_colour = !views[i].intensity.empty() && !views[j].intensity.empty();
   for (int direction = 0; direction < 2; ++direction) {
     const std::size_t a = direction ? j : i;  // points
     const std::size_t b = direction ? i : j;  // surface
@@ -205,35 +223,19 @@ std::size_t accumulate_pair(const std::vector<View>& views, const std::vector<Is
       if (!n_b.allFinite() || !na_b.allFinite() || n_b.dot(na_b) < kMinNormalCos) continue;
       const Eigen::Vector3d q_b = cb.positions[hit.index].cast<double>();
       const double r = n_b.dot(p_b - q_b);
-      const double u = r / tukey;
-      if (std::abs(u) >= 1.0) continue;
-      const double w = (1.0 - u * u) * (1.0 - u * u);
+      const double w = geometric.weight(r);
+      if (w <= 0.0) continue;
       // World frame, centred.
-      const Eigen::Vector3d n = R_b * n_b;
       const Eigen::Vector3d p = poses[b] * p_b - centre;
       const Eigen::Vector3d q = poses[b] * q_b - centre;
-      Vector12d J;
-      J.segment<3>(block_a) = p.cross(n);
-      J.segment<3>(block_a + 3) = n;
-      J.segment<3>(block_b) = -q.cross(n);
-      J.segment<3>(block_b + 3) = -n;
-      H.selfadjointView<Eigen::Upper>().rankUpdate(J, w);
-      g += w * r * J;
+      add_residual(block_a, block_b, p, q, R_b * n_b, r, w, H, g);
       ++count;
-      if (views[a].intensity.empty() || views[b].intensity.empty()) continue;
+      if (!with_colour) continue;
       const Eigen::Vector3d d_b = views[b].gradient[hit.index].cast<double>();
       const double r_c = views[b].intensity[hit.index] + d_b.dot(p_b - q_b) -
                          views[a].intensity[k];
-      const double u_c = r_c / kColorTukey;
-      if (std::abs(u_c) >= 1.0) continue;
-      const double w_c = w * kColorWeight * (1.0 - u_c * u_c) * (1.0 - u_c * u_c);
-      const Eigen::Vector3d d = R_b * d_b;
-      J.segment<3>(block_a) = p.cross(d);
-      J.segment<3>(block_a + 3) = d;
-      J.segment<3>(block_b) = -p.cross(d);
-      J.segment<3>(block_b + 3) = -d;
-      H.selfadjointView<Eigen::Upper>().rankUpdate(J, w_c);
-      g += w_c * r_c * J;
+      const double w_c = w * kColorWeight * colour.weight(r_c);
+      if (w_c > 0.0) add_residual(block_a, block_b, p, p, R_b * d_b, r_c, w_c, H, g);
     }
   }
   H.triangularView<Eigen::Lower>() = H.transpose();
@@ -396,8 +398,8 @@ void refine_jointly(AlignmentState& s) {
   report.ran = true;
   const std::size_t n = s.registered.size();
   if (n < 2) return;
-  const std::vector<Isometry3d> solved = result.graph.nodes;
-  report.graph_optimum = solved;
+  report.graph_optimum = result.graph.nodes;
+  const std::vector<Isometry3d>& solved = report.graph_optimum;
   std::vector<Isometry3d> poses = solved;
   const auto pairs = overlapping_pairs(s, poses);
   report.pairs = pairs.size();
@@ -409,6 +411,7 @@ void refine_jointly(AlignmentState& s) {
     v.cloud = &s.prepared[s.registered[k]].cloud;
     v.tree = KdTree(v.cloud->positions);
     if (!color || !v.cloud->has_colors()) return;
+    v.intensity.reserve(v.cloud->size());
     for (const Rgb8& c : v.cloud->colors) v.intensity.push_back(intensity_of(c));
     v.gradient = color_gradients(v.tree, v.cloud->normals, v.intensity,
                                  kGradientRadiusVoxels * s.options.voxel_size, kGradientNeighbours);
