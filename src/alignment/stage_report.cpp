@@ -191,6 +191,7 @@ void write_stage_report_json(const std::filesystem::path& path, const AlignmentR
                     {"correction_deg", c.correction_deg}, {"free_space", c.free_space},
                     {"constraint", c.constraint},  {"reason", c.reason}};
       if (std::isfinite(c.off_axis_deg)) e["check"]["off_axis_deg"] = c.off_axis_deg;
+      if (c.fixed_by_color) e["check"]["fixed_by_color"] = true;
       if (std::isfinite(c.tripod_residual_m))
         e["check"]["tripod_residual_m"] = c.tripod_residual_m;
     } else {

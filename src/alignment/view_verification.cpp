@@ -5,7 +5,9 @@
 
 #include "core/floor_to_int.hpp"
 
+#include <locard/core/kdtree.hpp>
 #include <locard/preprocess/point_selection.hpp>
+#include <locard/registration/color_gradient.hpp>
 
 #include <Eigen/Eigenvalues>
 #include <fmt/format.h>
@@ -42,6 +44,40 @@ Matrix6d normal_information(const PointCloud& cloud) {
   return A;
 }
 
+// The colour term's share of that matrix (Park et al. 2017; color_gradient.hpp): J =
+// sqrt(kColorTermWeight) [p x d / lever, d] per point, d its colour gradient over the surface,
+// averaged over all the view's points like the geometric matrix. Only gradients that stand
+// kSignificantGradient standard errors above the colour's noise count: a plain wall's noise
+// must not pass for a texture that fixes the slide.
+constexpr double kSignificantGradient = 3.0;
+constexpr double kGradientRadiusVoxels = 2.0;  // as the joint refinement's
+constexpr int kGradientNeighbours = 30;
+
+Matrix6d color_information(const PointCloud& cloud, double voxel_size) {
+  Matrix6d A = Matrix6d::Zero();
+  if (!cloud.has_normals() || !cloud.has_colors() || cloud.empty()) return A;
+  const KdTree tree(cloud.positions);
+  std::vector<float> intensity;
+  for (const Rgb8& c : cloud.colors) intensity.push_back(intensity_of(c));
+  std::vector<float> error;
+  const std::vector<Eigen::Vector3f> gradient =
+      color_gradients(tree, cloud.normals, intensity, kGradientRadiusVoxels * voxel_size,
+                      kGradientNeighbours, &error);
+  double lever2 = 0.0;
+  for (const Eigen::Vector3f& p : cloud.positions) lever2 += p.squaredNorm();
+  const double lever = std::sqrt(std::max(lever2 / static_cast<double>(cloud.size()), 1e-12));
+  for (std::size_t k = 0; k < cloud.size(); ++k) {
+    if (!(gradient[k].norm() > kSignificantGradient * error[k])) continue;
+    const Eigen::Vector3d p = cloud.positions[k].cast<double>();
+    const Eigen::Vector3d d = gradient[k].cast<double>();
+    Eigen::Matrix<double, 6, 1> j;
+    j << p.cross(d) / lever, d;
+    A += kColorTermWeight * j * j.transpose();
+  }
+  A /= static_cast<double>(cloud.size());
+  return A;
+}
+
 // Its smallest eigenvalue: over the rotation only (tripod) or all six directions (video).
 double weakest_direction(const Matrix6d& A, bool rotation_only) {
   if (rotation_only)
@@ -62,6 +98,7 @@ double turn_constraint(const Matrix6d& A, const Eigen::Vector3d& axis) {
 struct ModelVoxel {
   Eigen::Vector3f position_sum = Eigen::Vector3f::Zero();
   Eigen::Vector3f normal_sum = Eigen::Vector3f::Zero();
+  Eigen::Vector3f color_sum = Eigen::Vector3f::Zero();
   std::uint32_t points = 0;
   std::uint32_t views = 0;
   std::uint64_t view_mask = 0;
@@ -102,6 +139,7 @@ ViewModel build_model(const AlignmentState& s, const std::vector<char>& excluded
       ModelVoxel& v = model.voxels[it->second];
       v.position_sum += p;
       if (c.has_normals()) v.normal_sum += T.linear() * c.normals[k];
+      if (c.has_colors()) v.color_sum += Eigen::Vector3f(c.colors[k].r, c.colors[k].g, c.colors[k].b);
       ++v.points;
       if (v.last_view != i) {
         v.last_view = i;
@@ -133,6 +171,9 @@ OthersModel others_model(const ViewModel& model, std::size_t view, const Eigen::
     out.surface.normals.push_back(norm > 0.f ? Eigen::Vector3f(v.normal_sum / norm)
                                              : Eigen::Vector3f::UnitZ());
     out.confirmed.push_back(support >= 2);
+    const Eigen::Vector3f rgb = (v.color_sum / static_cast<float>(v.points)).array().round();
+    out.surface.colors.push_back({static_cast<std::uint8_t>(rgb.x()), static_cast<std::uint8_t>(rgb.y()),
+                                  static_cast<std::uint8_t>(rgb.z())});
   }
   return out;
 }
@@ -257,7 +298,7 @@ CheckBox check_box(const AlignmentState& s, std::size_t i) {
 ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_t i,
                      const Eigen::Vector3d& tripod_centre, double off_axis_deg,
                      double tripod_residual_m, const std::optional<Eigen::Vector3d>& pan_axis,
-                     double tripod_play_m) {
+                     double tripod_play_m, const std::optional<Matrix6d>& color) {
   const AlignmentOptions& o = s.options;
   const ViewCheckOptions& limits = o.view_check;
   const FrameAlignment& f = s.result.frames[i];
@@ -266,7 +307,18 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   ViewCheck c;
   c.checked = true;
   const Matrix6d information = normal_information(cloud);
-  c.constraint = weakest_direction(information, o.mode == AlignmentMode::Cumulative);
+  const bool rotation_only = o.mode == AlignmentMode::Cumulative;
+  const double min_constraint = rotation_only ? limits.min_constraint : limits.min_constraint_6dof;
+  c.constraint = weakest_direction(information, rotation_only);
+  // A view whose geometry leaves a direction free that its colour's texture fixes: checked by
+  // coloured ICP, judged by both terms' constraint (color_information).
+  if (color && c.constraint < min_constraint) {
+    const double both = weakest_direction(information + *color, rotation_only);
+    if (both >= min_constraint) {
+      c.constraint = both;
+      c.fixed_by_color = true;
+    }
+  }
   c.off_axis_deg = off_axis_deg;
   c.tripod_residual_m = tripod_residual_m;
   // A tripod turn's view whose surfaces leave a tilt or roll free (a bare wall: the turn about
@@ -279,7 +331,8 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   const double pan = pan_axis ? turn_constraint(information, T.linear().transpose() * *pan_axis)
                              : 0.0;
   const bool held_by_tripod =
-      o.mode == AlignmentMode::Cumulative && play_small && std::isfinite(off_axis_deg) &&
+      !c.fixed_by_color && o.mode == AlignmentMode::Cumulative && play_small &&
+      std::isfinite(off_axis_deg) &&
       std::isfinite(tripod_residual_m) && c.constraint < limits.min_constraint &&
       pan >= limits.min_constraint;
   if (held_by_tripod) c.constraint = pan;
@@ -294,7 +347,7 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   }
   const PointCloud source = check_sample(cloud);
   IcpOptions icp_options;
-  icp_options.method = IcpMethod::PointToPlane;
+  icp_options.method = c.fixed_by_color ? IcpMethod::Colored : IcpMethod::PointToPlane;
   icp_options.min_fitness = 0.0;
   icp_options.max_correspondence_distance = 2.0 * o.voxel_size;
   icp_options.convergence.max_iterations = 20;
@@ -355,12 +408,11 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
     reasons.push_back(fmt::format("its camera stands {:.0f} mm from where the tripod's head puts "
                                   "it (allowed {:.0f} mm)",
                                   1000 * c.tripod_residual_m, 1000 * limits.max_tripod_residual_m));
-  const bool rotation_only = o.mode == AlignmentMode::Cumulative;
-  const double min_constraint = rotation_only ? limits.min_constraint : limits.min_constraint_6dof;
   if (c.constraint < min_constraint)
-    reasons.push_back(fmt::format("geometry does not fix its pose (constraint {:.4f}, need >= "
+    reasons.push_back(fmt::format("geometry does not fix its pose{} (constraint {:.4f}, need >= "
                                   "{:.3f}: a bare wall or plane)",
-                                  c.constraint, min_constraint));
+                                  color ? ", nor does its colour's texture" : "", c.constraint,
+                                  min_constraint));
   c.verified = reasons.empty();
   for (const std::string& reason : reasons) c.reason += (c.reason.empty() ? "" : "; ") + reason;
   // Confidence: the smallest margin to any limit, 1 far inside all of them, 0 at or past one.
@@ -434,6 +486,19 @@ void check_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
   const TripodConsistency tripod = tripod_consistency(s, views);
   std::vector<CheckBox> boxes(views.size());
   tbb::parallel_for(std::size_t{0}, views.size(), [&](std::size_t k) { boxes[k] = check_box(s, views[k]); });
+  // The colour term of the views whose geometry alone leaves a direction free (it costs a
+  // gradient fit over the view), where colour is registered to depth.
+  std::vector<std::optional<Matrix6d>> color(views.size());
+  if (s.options.refinement_color) {
+    const bool rotation_only = s.options.mode == AlignmentMode::Cumulative;
+    const double min_constraint = rotation_only ? s.options.view_check.min_constraint
+                                                : s.options.view_check.min_constraint_6dof;
+    tbb::parallel_for(std::size_t{0}, views.size(), [&](std::size_t k) {
+      const PointCloud& cloud = s.prepared[views[k]].cloud;
+      if (pose_constraint(cloud, rotation_only) < min_constraint)
+        color[k] = color_information(cloud, s.options.voxel_size);
+    });
+  }
   std::vector<char> due(views.size(), 1);
   for (int round = 0; round < std::max(1, s.options.view_check.rounds); ++round) {
     const ViewModel model = build_model(s, excluded);
@@ -442,7 +507,7 @@ void check_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
       s.result.frames[views[k]].check = check_view(s, model, views[k], tripod_centre,
                                                    tripod.off_axis_deg[views[k]],
                                                    tripod.residual_m[views[k]], tripod.axis,
-                                                   tripod.play_m);
+                                                   tripod.play_m, color[k]);
     });
     std::vector<std::size_t> changed;
     for (std::size_t k = 0; k < views.size(); ++k) {

@@ -154,10 +154,13 @@ TEST(ViewCheck, ARingTiltedAsAWholeIsFlaggedWithoutAMajority) {
 
 // The views whose own surfaces leave a tilt or roll free (a bare wall).
 // Generated room 4 (Kinect v2, one ring of 25 views, a room whose walls carry no relief: three
-// views see a bare wall), with the tripod's play (position jitter, per axis) given.
+// views see a bare wall), with the tripod's play (position jitter, per axis) given, every
+// surface painted plain (the room draws a checker: its colour would hold those views).
 RgbdSequence room_four_turn(const std::string& name, double position_jitter_m) {
   sim::Scene scene = sim::random_scene(4);
   scene.scanner.position_jitter_m = position_jitter_m;
+  scene.room.texture = sim::Texture::Plain;
+  for (sim::SceneObject& object : scene.objects) object.texture = sim::Texture::Plain;
   const fs::path folder = test::scratch_dir() / name;
   sim::write_simulated_scan(scene, folder);
   return open_rgbd_sequence(folder);
@@ -208,6 +211,60 @@ TEST(ViewCheck, ABareWallViewOnAShakyTripodIsFlagged) {
     EXPECT_NE(s.state.result.frames[i].check.reason.find("geometry does not fix"), std::string::npos)
         << s.state.result.frames[i].check.reason;
   }
+}
+
+// The same shaky tripod in the same room with its walls in a checker (10 cm squares,
+// colour registered to depth): the bare-wall views' colour fixes the roll and the slide their
+// geometry leaves free, so they are checked by coloured ICP and verified, within the bar. Slid
+// 3 cm along its wall, one is flagged: the colour places it back.
+RgbdSequence checkered_room_four_turn(const std::string& name) {
+  sim::Scene scene = sim::random_scene(4);
+  scene.scanner.position_jitter_m = 0.008;
+  scene.room.texture = sim::Texture::Checker;
+  scene.room.texture_scale = 0.1;
+  const fs::path folder = test::scratch_dir() / name;
+  sim::write_simulated_scan(scene, folder);
+  return open_rgbd_sequence(folder);
+}
+
+TEST(ViewCheck, ABareWallViewIsHeldByItsColourOnAShakyTripod) {
+  const RgbdSequence seq = checkered_room_four_turn("check-checkered-wall");
+  ASSERT_TRUE(seq.traits.color_registered_to_depth);
+  SolvedState s(seq, seq.traits.ring_sizes);
+  s.options.refinement_color = true;
+  const std::vector<std::size_t> bare = bare_wall_views(s);
+  ASSERT_FALSE(bare.empty());
+  check_views(s.state);
+  for (std::size_t i : bare) {
+    const ViewCheck& c = s.state.result.frames[i].check;
+    EXPECT_TRUE(c.verified) << "view " << i << ": " << c.reason;
+    EXPECT_TRUE(c.fixed_by_color) << "view " << i;
+    EXPECT_LT(c.correction_m, 0.005) << "view " << i;
+  }
+  EXPECT_LT(worst_verified_error(s).first, 0.5);
+  EXPECT_LT(worst_verified_error(s).second, 0.01);
+
+  // Slid along its wall (the camera's x axis on a wall it faces): nothing in its geometry says
+  // so, its colour does.
+  SolvedState slid(seq, seq.traits.ring_sizes);
+  slid.options.refinement_color = true;
+  Isometry3d& T = *slid.state.result.frames[bare.front()].T_world_camera_final;
+  T.translation() += T.linear() * Eigen::Vector3d(0.03, 0.0, 0.0);
+  check_views(slid.state);
+  const ViewCheck& c = slid.state.result.frames[bare.front()].check;
+  EXPECT_FALSE(c.verified);
+  EXPECT_GT(c.correction_m, 0.02) << c.reason;
+}
+
+// Without colour registered to depth the colour says nothing: the same views are flagged.
+TEST(ViewCheck, UnregisteredColourHoldsNothing) {
+  const RgbdSequence seq = checkered_room_four_turn("check-checkered-wall-unregistered");
+  SolvedState s(seq, seq.traits.ring_sizes);
+  s.options.refinement_color = false;
+  const std::vector<std::size_t> bare = bare_wall_views(s);
+  ASSERT_FALSE(bare.empty());
+  check_views(s.state);
+  for (std::size_t i : bare) EXPECT_FALSE(s.state.result.frames[i].trusted()) << "view " << i;
 }
 
 }  // namespace

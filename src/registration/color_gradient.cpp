@@ -4,6 +4,9 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <cmath>
+#include <limits>
+
 namespace locard {
 
 float intensity_of(const Rgb8& c) {
@@ -14,9 +17,10 @@ float intensity_of(const Rgb8& c) {
 std::vector<Eigen::Vector3f> color_gradients(const KdTree& tree,
                                              std::span<const Eigen::Vector3f> normals,
                                              std::span<const float> intensity, double radius,
-                                             int max_neighbors) {
+                                             int max_neighbors, std::vector<float>* standard_error) {
   const auto& pts = tree.points();
   std::vector<Eigen::Vector3f> gradient(pts.size(), Eigen::Vector3f::Zero());
+  if (standard_error) standard_error->assign(pts.size(), std::numeric_limits<float>::infinity());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, pts.size(), 256), [&](const auto& r) {
     std::vector<Neighbor> nbrs;
     for (std::size_t i = r.begin(); i != r.end(); ++i) {
@@ -39,7 +43,18 @@ std::vector<Eigen::Vector3f> color_gradients(const KdTree& tree,
       const Eigen::LDLT<Eigen::Matrix3d> ldlt(AtA);
       if (ldlt.info() != Eigen::Success || !ldlt.isPositive()) continue;
       const Eigen::Vector3d d = ldlt.solve(Atb);
-      if (d.allFinite()) gradient[i] = d.cast<float>();
+      if (!d.allFinite()) continue;
+      gradient[i] = d.cast<float>();
+      if (!standard_error || nbrs.size() < 5) continue;
+      double rss = 0.0;
+      for (const Neighbor& nb : nbrs) {
+        const Eigen::Vector3d pj = pts[nb.index].cast<double>();
+        const double e = d.dot(pj - n * n.dot(pj - p) - p) - (intensity[nb.index] - ci);
+        rss += e * e;
+      }
+      const double variance = rss / static_cast<double>(nbrs.size() - 3);
+      const double trace = ldlt.solve(Eigen::Matrix3d::Identity()).trace();
+      (*standard_error)[i] = static_cast<float>(std::sqrt(variance * trace));
     }
   });
   return gradient;

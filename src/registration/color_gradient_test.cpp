@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <random>
 
 namespace locard {
 namespace {
@@ -48,6 +49,28 @@ TEST(ColorGradient, IsTheRampsSlopeAlongThePlane) {
   }
   EXPECT_LT(worst, 1e-3 * tangent.norm());
   EXPECT_LT(worst_normal, 1e-4);
+}
+
+// The standard error tells a texture from noise: a plain plane whose intensity is only noise
+// (sigma 0.01) gives gradients of a few per metre, most within 3 standard errors; the same
+// noise on a ramp of 3 per metre (a texture's edge over a few centimetres) stands far above it.
+TEST(ColorGradient, StandardErrorTellsTextureFromNoise) {
+  const Eigen::Vector3d n = Eigen::Vector3d::UnitZ();
+  std::mt19937 rng(3);
+  std::normal_distribution<float> noise(0.f, 0.01f);
+  for (const double slope : {0.0, 3.0}) {
+    Painted plane = painted_plane(n, Eigen::Vector3d(slope, 0.0, 0.0));
+    for (float& c : plane.intensity) c += noise(rng);
+    const KdTree tree(plane.points);
+    std::vector<float> error;
+    const std::vector<Eigen::Vector3f> d =
+        color_gradients(tree, plane.normals, plane.intensity, 0.04, 30, &error);
+    std::size_t significant = 0;
+    for (std::size_t i = 0; i < d.size(); ++i) significant += d[i].norm() > 3.f * error[i];
+    const double share = static_cast<double>(significant) / static_cast<double>(d.size());
+    if (slope == 0.0) EXPECT_LT(share, 0.05) << "noise read as texture";
+    else EXPECT_GT(share, 0.95) << "texture read as noise";
+  }
 }
 
 TEST(ColorGradient, IsZeroWithTooFewNeighbours) {

@@ -210,6 +210,9 @@ struct ViewCheck {
   double overlap = 0.0;    // share of the view's points within the gate of the others' model
   double free_space = 0.0; // share of others' surface points in its view that it sees through
   double constraint = 0.0; // smallest normalised eigenvalue of its point-to-plane matrix
+  // Its geometry leaves a direction free and its colour's texture fixes it: the constraint
+  // counts the colour term and the check's ICP is coloured (view_verification.cpp).
+  bool fixed_by_color = false;
   double correction_m = 0.0;    // leave-one-out ICP correction of its pose
   double correction_deg = 0.0;
   // Tripod turn: angle between the pan axis as the view sees it and its ring's; NaN when the
