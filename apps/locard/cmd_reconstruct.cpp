@@ -86,6 +86,12 @@ int run_reconstruct(const ReconstructCli& o, const GlobalOptions& global) {
                  "or corner across the line: the tape point is used as given, so they measure "
                  "nothing)\n",
                  s.measurements_not_snapped);
+    if (s.floor_seen_share) {
+      fmt::print("reconstruct: floor observed {:.0f} % (coverage/floor_coverage.json)\n",
+                 100.0 * *s.floor_seen_share);
+      for (const std::string& line : s.coverage_advice)
+        fmt::print("reconstruct: coverage: {}\n", line);
+    }
     std::string stages;
     for (const auto& [name, sec] : s.stage_seconds)
       stages += fmt::format("{}{} {:.1f} s", stages.empty() ? "" : ", ", name, sec);

@@ -331,14 +331,17 @@ std::string stage_report_svg(const AlignmentResult& result, const StageReport& r
     for (const auto& [x, y] : s.points)
       svg += fmt::format("<circle cx=\"{:.2f}\" cy=\"{:.2f}\" r=\"2.5\" fill=\"{}\"/>\n", X(x), Y(y),
                          s.color);
-    const double ly = T + 20 + 22 * static_cast<double>(i);
-    std::string label = s.label;
+    // Two lines an entry, the ATE under the label: one line overran the right margin.
+    const double ly = T + 20 + 34 * static_cast<double>(i);
+    std::string ate;
     if (report.has_ground_truth && report.summary[i].ate_rmse_m)
-      label += fmt::format(" (ATE {:.1f} mm)", 1000.0 * *report.summary[i].ate_rmse_m);
+      ate = fmt::format("ATE {:.1f} mm", 1000.0 * *report.summary[i].ate_rmse_m);
     svg += fmt::format(
         "<line x1=\"{0}\" x2=\"{1}\" y1=\"{2:.2f}\" y2=\"{2:.2f}\" stroke=\"{3}\" "
-        "stroke-width=\"3\"/><text x=\"{4}\" y=\"{5:.2f}\" font-size=\"11\">{6}</text>\n",
-        L + pw + 10, L + pw + 28, ly, s.color, L + pw + 32, ly + 4, escape(label));
+        "stroke-width=\"3\"/><text x=\"{4}\" y=\"{5:.2f}\" font-size=\"11\">{6}</text>"
+        "<text x=\"{4}\" y=\"{7:.2f}\" font-size=\"11\">{8}</text>\n",
+        L + pw + 10, L + pw + 28, ly, s.color, L + pw + 32, ly + 4, escape(s.label), ly + 17,
+        escape(ate));
   }
   svg += "</svg>\n";
   return svg;

@@ -9,6 +9,7 @@
 #include <locard/core/error.hpp>
 #include <locard/forensics/case_folder.hpp>
 #include <locard/forensics/case_model.hpp>
+#include <locard/forensics/floor_coverage.hpp>
 #include <locard/forensics/floor_level.hpp>
 #include <locard/forensics/integrity.hpp>
 #include <locard/forensics/measurement.hpp>
@@ -298,6 +299,38 @@ ReconstructPlan plan_reconstruct(const fs::path& input, const ReconstructParamet
   if (!plan.reference.empty()) plan.refs = read_reference_measurements(plan.reference);  // fail early
   plan.input_root = fs::absolute(input).lexically_normal();
   return plan;
+}
+
+// ---- coverage: what of the floor the views observed, with advice (floor_coverage.hpp). Only
+// in a levelled case: without a floor plane there is nothing to judge, and the case says so.
+void run_coverage_stage(CaseFolder& folder, const RgbdSequence& sequence,
+                        const AlignmentResult& result,
+                        const std::vector<std::optional<Isometry3d>>& poses,
+                        const ReconstructParameters& P, ReconstructSummary& summary,
+                        const std::function<void(const std::string&)>& note) {
+  const auto t0 = Clock::now();
+  const auto [points, up] = floor_evidence(sequence, result, Isometry3d::Identity(), 12);
+  const std::optional<double> floor_z = floor_height(points);
+  if (!floor_z) {
+    note("coverage not computed: no horizontal floor plane in the levelled case");
+    return;
+  }
+  FloorCoverageOptions options;
+  options.min_depth_m = P.min_depth_m;
+  options.max_depth_m = P.max_depth_m;
+  const FloorCoverage coverage = compute_floor_coverage(sequence, poses, *floor_z, options);
+  write_text(folder.path("coverage/floor_coverage.json"), floor_coverage_json(coverage));
+  summary.floor_seen_share = coverage.seen_share();
+  summary.coverage_advice = coverage.advice;
+  LogStep s;
+  s.step = "coverage";
+  s.parameters_json = json{{"cell_m", options.cell_m}, {"floor_z_m", *floor_z},
+                           {"views", coverage.views_used}}.dump();
+  s.duration_s = seconds_since(t0);
+  s.inputs = {"alignment/trajectory.txt"};
+  s.outputs = {"coverage/floor_coverage.json"};
+  folder.append_log_step(s);
+  summary.stage_seconds.emplace_back("coverage", seconds_since(t0));
 }
 
 // The stages, each a logged step, between the "begin" and "complete" lines.
@@ -679,6 +712,8 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
     folder.append_log_step(s);
   }
   summary.stage_seconds.emplace_back("mesh", seconds_since(t0));
+
+  run_coverage_stage(folder, sequence, result, poses, P, summary, note);
 
   // ---- measurements against the reference (tape) values
   if (!refs.empty()) {

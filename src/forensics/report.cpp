@@ -178,6 +178,96 @@ TopView render_top_view(const TriangleMesh& mesh, const sim::Raycaster& rc, cons
   return v;
 }
 
+// What every plan drawn over the top view carries: a scale bar (a round length near a quarter
+// of the width) and the case's axes, +y up the page as north on a map. The case frame is
+// levelled (z up), so the drawing is a true plan.
+std::string map_furniture_svg(const TopView& top) {
+  const double target = 0.25 * top.width / top.scale;
+  double length = 0.1;
+  for (const double nice : {0.1, 0.2, 0.25, 0.5, 1.0, 2.0, 2.5, 5.0, 10.0, 20.0})
+    if (nice <= target) length = nice;
+  const double px = length * top.scale;
+  const double x0 = 12, y0 = top.height - 14.0;
+  std::string svg = fmt::format(
+      "<g class=\"scale-bar\"><rect x=\"{0:.1f}\" y=\"{1:.1f}\" width=\"{2:.1f}\" height=\"6\" "
+      "fill=\"#fff\" stroke=\"#000\"/><rect x=\"{0:.1f}\" y=\"{1:.1f}\" width=\"{3:.1f}\" "
+      "height=\"6\" fill=\"#000\"/><text x=\"{0:.1f}\" y=\"{4:.1f}\" font-size=\"10\">0</text>"
+      "<text x=\"{5:.1f}\" y=\"{4:.1f}\" font-size=\"10\" text-anchor=\"end\">{6} m</text></g>",
+      x0, y0, px, 0.5 * px, y0 - 3, x0 + px, length);
+  const double ax = top.width - 30.0, ay = top.height - 16.0;
+  svg += fmt::format(
+      "<g class=\"axes\" font-size=\"10\"><line x1=\"{0:.1f}\" y1=\"{1:.1f}\" x2=\"{0:.1f}\" "
+      "y2=\"{2:.1f}\" stroke=\"#000\" stroke-width=\"1.5\"/><path d=\"M{0:.1f},{3:.1f} l-4,8 h8 z\"/>"
+      "<text x=\"{0:.1f}\" y=\"{4:.1f}\" text-anchor=\"middle\">N (+y)</text>"
+      "<line x1=\"{0:.1f}\" y1=\"{1:.1f}\" x2=\"{5:.1f}\" y2=\"{1:.1f}\" stroke=\"#000\"/>"
+      "<text x=\"{6:.1f}\" y=\"{7:.1f}\">x</text></g>",
+      ax, ay, ay - 34, ay - 38, ay - 40, ax + 18, ax + 20, ay + 4);
+  return svg;
+}
+
+// The floor the scan observed, over the top view (coverage/floor_coverage.json): hidden cells
+// amber, unseen red, the tripod's centre and its unseen disc outlined.
+std::string coverage_section(const fs::path& root, const TopView& top) {
+  std::string h = "<h2 id=\"coverage\">Coverage: the floor the scan observed</h2>\n";
+  const json c = read_json_or_null(root / "coverage" / "floor_coverage.json");
+  if (c.is_null()) {
+    h += "<p class=\"note\">Not computed: the case has no horizontal floor plane to judge "
+         "(not levelled, or no floor in view).</p>\n";
+    return h;
+  }
+  std::string svg = fmt::format(
+      "<svg id=\"coverage-plot\" xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" "
+      "height=\"{1}\" viewBox=\"0 0 {0} {1}\"><image width=\"{0}\" height=\"{1}\" href=\"{2}\" "
+      "opacity=\"0.6\"/>",
+      top.width, top.height, png_data_uri(top.image));
+  const double cell = c.value("cell_m", 0.05), z = c.value("floor_z_m", 0.0);
+  const double ox = c["origin"][0].get<double>(), oy = c["origin"][1].get<double>();
+  const auto& rows = c["rows"];
+  for (std::size_t y = 0; y < rows.size(); ++y) {
+    const std::string row = rows[y].get<std::string>();
+    for (std::size_t x = 0; x < row.size();) {  // runs of one kind, one rectangle each
+      const char kind = row[x];
+      std::size_t end = x;
+      while (end < row.size() && row[end] == kind) ++end;
+      if (kind == 'u' || kind == 'h') {
+        const auto a = top.to_pixel({ox + cell * x, oy + cell * (y + 1), z});
+        const auto b = top.to_pixel({ox + cell * end, oy + cell * y, z});
+        svg += fmt::format("<rect x=\"{:.1f}\" y=\"{:.1f}\" width=\"{:.1f}\" height=\"{:.1f}\" "
+                           "fill=\"{}\" fill-opacity=\"0.55\" shape-rendering=\"crispEdges\"/>",
+                           a.x(), a.y(), b.x() - a.x(), b.y() - a.y(),
+                           kind == 'u' ? "#d62728" : "#ff9f1c");
+      }
+      x = end;
+    }
+  }
+  if (c.contains("tripod")) {
+    const json& t = c["tripod"];
+    const auto p = top.to_pixel({t["centre"][0].get<double>(), t["centre"][1].get<double>(), z});
+    svg += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"{:.1f}\" fill=\"none\" "
+                       "stroke=\"#000\" stroke-dasharray=\"4 3\"/><circle cx=\"{:.1f}\" "
+                       "cy=\"{:.1f}\" r=\"3\" fill=\"#000\"/>",
+                       p.x(), p.y(), t.value("unseen_radius_m", 0.0) * top.scale, p.x(), p.y());
+  }
+  svg += map_furniture_svg(top) + "</svg>";
+  const json& area = c["area_m2"];
+  h += "<figure>" + svg +
+       fmt::format("<figcaption>Floor at z = {} m in {:.0f} mm cells, from {} views: red unseen "
+                   "(in no view's field and range), amber hidden under or behind objects, the "
+                   "rest seen; black: the tripod's centre and its unseen disc</figcaption>",
+                   fmt::format("{:.3f}", z),
+                   1000 * cell, c.value("views_used", 0)) +
+       "</figure>\n";
+  h += fmt::format("<table id=\"coverage-table\"><tr><th>floor seen</th><td class=n>{:.2f} m&sup2; "
+                   "({:.0f} %)</td></tr><tr><th>hidden</th><td class=n>{:.2f} m&sup2;</td></tr>"
+                   "<tr><th>unseen</th><td class=n>{:.2f} m&sup2;</td></tr></table>\n",
+                   area.value("seen", 0.0), 100.0 * c.value("seen_share", 0.0),
+                   area.value("hidden", 0.0), area.value("unseen", 0.0));
+  h += "<ul id=\"coverage-advice\">";
+  for (const json& line : c["advice"]) h += "<li>" + esc(line.get<std::string>()) + "</li>";
+  h += "</ul>\n";
+  return h;
+}
+
 std::string svg_text(const std::string& svg) {
   const auto p = svg.find("<svg");
   return p == std::string::npos ? svg : svg.substr(p);
@@ -396,11 +486,13 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
                            "text-anchor=\"middle\">{}</text>",
                            px.x(), px.y(), px.x(), px.y() + 3, m.value("number", 0));
       }
-    svg += "</svg>";
+    svg += map_furniture_svg(top) + "</svg>";
     h += "<figure>" + svg +
          "<figcaption>Blue: camera positions and viewing directions; yellow: evidence markers; "
          "red dashed: bullet trajectories to the surfaces they meet</figcaption></figure>\n";
   }
+
+  h += coverage_section(root, top);
 
   // Table I
   h += "<h2 id=\"measurements\">Measurements against reference (Table I)</h2>\n";

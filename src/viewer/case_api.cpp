@@ -259,6 +259,7 @@ ApiResponse CaseApi::case_summary() {
   view["mesh_glb"] = is_regular(root / "mesh/mesh.glb");
   view["mesh_ply"] = is_regular(root / "mesh/mesh.ply");
   view["cloud"] = is_regular(root / "cloud/registered.ply");
+  view["coverage"] = is_regular(root / "coverage/floor_coverage.json");
   if (auto m = read_json_file(root / "mesh/mesh.json")) {
     view["mesh_info"] = *m;
     view["inferred_triangles"] = m->value("inferred_triangles", 0);

@@ -100,6 +100,10 @@ struct ReconstructSummary {
   std::size_t measurements_within = 0;
   std::size_t measurements_not_measured = 0;  // reference points the model does not cover
   std::size_t measurements_not_snapped = 0;   // rows with an end no feature fixed (see SnapFeature)
+  // The floor the scan observed (floor_coverage.hpp): share of the floor seen, and what to do
+  // about the rest; empty when the case has no floor plane to judge.
+  std::optional<double> floor_seen_share;
+  std::vector<std::string> coverage_advice;
   double seconds = 0.0;
   std::vector<std::pair<std::string, double>> stage_seconds;
 };

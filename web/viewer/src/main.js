@@ -58,7 +58,9 @@ const pointsGroup = new THREE.Group();
 const overlayGroup = new THREE.Group();  // measurements, trajectories
 const markerGroup = new THREE.Group();
 const simGroup = new THREE.Group();
-root.add(meshGroup, pointsGroup, overlayGroup, markerGroup, simGroup);
+const coverageGroup = new THREE.Group();  // the floor the scan did not observe
+root.add(meshGroup, pointsGroup, overlayGroup, markerGroup, simGroup, coverageGroup);
+coverageGroup.visible = false;
 pointsGroup.visible = false;
 
 const clipPlane = new THREE.Plane(new THREE.Vector3(0, 0, -1), 0);
@@ -380,6 +382,7 @@ function applyToggles() {
   for (const m of inferredMeshes) m.visible = $('show-inferred').checked;
   pointsGroup.visible = $('show-points').checked;
   markerGroup.visible = $('show-markers').checked;
+  coverageGroup.visible = $('show-coverage').checked;
   if (pointsObject) {
     const useSegments = $('show-segments').checked && segmentColors;
     pointsObject.geometry.setAttribute('color', useSegments ? segmentColors : pointColors);
@@ -387,7 +390,7 @@ function applyToggles() {
   }
   requestRender();
 }
-for (const id of ['show-mesh', 'show-points', 'show-inferred', 'show-segments', 'show-markers'])
+for (const id of ['show-mesh', 'show-points', 'show-inferred', 'show-segments', 'show-markers', 'show-coverage'])
   $(id).addEventListener('change', applyToggles);
 
 function applyClipping() {
@@ -405,6 +408,33 @@ function applyClipping() {
   requestRender();
 }
 for (const id of ['clip-on', 'clip-axis', 'clip-flip', 'clip-pos']) $(id).addEventListener('input', applyClipping);
+
+// --- coverage: the floor grid of `reconstruct` (one character a cell: s seen, h hidden, u unseen,
+// . not floor) as one texture on a plane just above the floor, a texel a cell.
+const COVERAGE_RGBA = { u: [214, 39, 40, 150], h: [255, 159, 28, 130] };
+async function loadCoverage() {
+  const c = await (await fetch(withToken('/case/coverage/floor_coverage.json'))).json();
+  const [nx, ny] = c.size;
+  const texels = new Uint8Array(nx * ny * 4);
+  c.rows.forEach((row, y) => {
+    for (let x = 0; x < nx; ++x) {
+      const rgba = COVERAGE_RGBA[row[x]];
+      if (rgba) texels.set(rgba, 4 * (y * nx + x));
+    }
+  });
+  const texture = new THREE.DataTexture(texels, nx, ny, THREE.RGBAFormat);
+  texture.magFilter = THREE.NearestFilter;
+  texture.needsUpdate = true;
+  const plane = new THREE.Mesh(new THREE.PlaneGeometry(nx * c.cell_m, ny * c.cell_m),
+    new THREE.MeshBasicMaterial({ map: texture, transparent: true, depthWrite: false, side: THREE.DoubleSide }));
+  plane.position.set(c.origin[0] + nx * c.cell_m / 2, c.origin[1] + ny * c.cell_m / 2, c.floor_z_m + 0.01);
+  plane.renderOrder = 1;
+  coverageGroup.add(plane);
+  state.coverage = { seenShare: c.seen_share, advice: c.advice };
+  const a = c.area_m2, all = a.seen + a.hidden + a.unseen;
+  $('coverage-share').textContent = `(${Math.round(100 * a.unseen / all)} % unseen, ${Math.round(100 * a.hidden / all)} % hidden)`;
+  $('show-coverage').title += '\n' + c.advice.join('\n');
+}
 
 // --- picking ------------------------------------------------------------------------------------
 const raycaster = new THREE.Raycaster();
@@ -909,6 +939,8 @@ async function main() {
   if (info.view.cloud) tasks.push(loadPoints().catch((err) => status(`points: ${err.message}`)));
   else $('show-points').disabled = true;
   tasks.push(loadMarkers().then(loadSaved));
+  if (info.view.coverage) tasks.push(loadCoverage().catch((err) => status(`coverage: ${err.message}`)));
+  else $('show-coverage').disabled = true;
   await Promise.all(tasks);
   for (const s of info.view.simulations || []) {
     if (!s.animation) continue;
