@@ -59,7 +59,10 @@ int run(const ScanSimOptions& o, const GlobalOptions& global) {
   if (!o.random && (!o.sensor.empty() || !o.surfaces.empty()))
     throw InputError("scan-sim: --sensor and --surfaces apply to --random rooms only");
   sim::Scene scene = o.random ? sim::random_scene(*o.random, random_options(o)) : load_scene(o.scene);
-  if (o.views) scene.scanner.views = *o.views;
+  if (o.views) {
+    scene.scanner.views = *o.views;
+    scene.scanner.ring_views.clear();
+  }
   if (o.seed) scene.scanner.seed = *o.seed;
   if (o.no_noise) scene.scanner.noise = false;
   // A random room's scene.json is generated, not read: write it as scanned, overrides included.
@@ -67,7 +70,7 @@ int run(const ScanSimOptions& o, const GlobalOptions& global) {
   sim::check_output_folder(o.output, o.force);
   if (o.random && !global.quiet) fmt::print("scan-sim: {}\n", sim::random_scene_summary(scene));
 
-  const std::size_t total = scene.scanner.views * scene.scanner.pitch_deg.size();
+  const std::size_t total = scene.scanner.total_views();
   ProgressBar bar("scan-sim", total, ProgressBar::should_show(global.quiet));
   sim::ScanWriteOptions options;
   options.force = o.force;

@@ -21,7 +21,7 @@ TEST(AlignCli, WritesTrajectoryPoseGraphReportAndFusedCloud) {
   const fs::path base = test::scratch_dir();  // one per test: call it once
   const fs::path scan = base / "scan";
   sim::Scene scene = sim::builtin_scene("bedroom");
-  sim::write_simulated_scan(scene, scan);  // the 50-view turn; the first 8 views are aligned
+  sim::write_simulated_scan(scene, scan);  // the two-ring turn; the first 8 views are aligned
   const fs::path out = base / "out";
   const std::string args = "-q align '" + scan.string() + "' -o '" + out.string() + "' --frames 8";
   const auto r = test::run_cli(args);

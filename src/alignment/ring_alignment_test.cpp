@@ -32,8 +32,7 @@ const TwoRings& two_rings() {
   static const TwoRings rings = [] {
     const fs::path folder = test::scratch_dir() / "bedroom-two-rings";
     sim::Scene scene = sim::builtin_scene("bedroom");
-    scene.scanner.views = kViews;
-    scene.scanner.pitch_deg = {-15.0, 15.0};
+    scene.scanner.set_rings(kViews, {-15.0, 15.0});
     sim::write_simulated_scan(scene, folder);
     TwoRings r{open_rgbd_sequence(folder), {}, {}, scene.scanner.position};
     for (std::size_t i = 0; i < r.sequence.frames.size(); ++i)

@@ -40,7 +40,7 @@ const fs::path& bedroom() {
                         std::to_string(::getpid()));
     fs::remove_all(f);
     sim::Scene scene = sim::builtin_scene("bedroom");
-    scene.scanner.views = kTestViews;
+    scene.scanner.set_rings(kTestViews, {-10.0});  // one ring, as the bedroom had before its downward ring
     sim::write_simulated_scan(scene, f);
     return f;
   }();
@@ -118,7 +118,7 @@ TEST(SequentialAlignment, BedroomTurnCumulativeStagesAndLoopClosure) {
 TEST(SequentialAlignment, WideStepTurnTracksEveryViewOnTheTripod) {
   const fs::path folder = test::scratch_dir() / "bedroom-12";
   sim::Scene scene = sim::builtin_scene("bedroom");
-  scene.scanner.views = 12;
+  scene.scanner.set_rings(12, {-10.0});  // one ring, as the bedroom had before its downward ring
   sim::write_simulated_scan(scene, folder);
   const RgbdSequence seq = open_rgbd_sequence(folder);
   AlignmentOptions o;

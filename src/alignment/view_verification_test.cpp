@@ -26,8 +26,7 @@ constexpr double kDeg = M_PI / 180.0;
 RgbdSequence bedroom_turn(const std::string& name, int views, std::vector<double> pitch_deg) {
   const fs::path folder = test::scratch_dir() / name;
   sim::Scene scene = sim::builtin_scene("bedroom");
-  scene.scanner.views = views;
-  scene.scanner.pitch_deg = std::move(pitch_deg);
+  scene.scanner.set_rings(views, std::move(pitch_deg));
   sim::write_simulated_scan(scene, folder);
   return open_rgbd_sequence(folder);
 }

@@ -1,4 +1,4 @@
-// The "must show" on the full simulated bedroom (50 views, default parameters, the
+// The "must show" on the full simulated bedroom (66 views in two rings, default parameters, the
 // scan `make demo` makes): Table I from the reconstructed case, room width within 1 cm, every
 // object dimension within 5 mm, each error inside its stated (k = 2) uncertainty; and the
 // fresh case verifies. About a minute in release; skipped under AddressSanitizer (slow).
@@ -29,14 +29,14 @@ constexpr bool kSanitized = false;
 #endif
 
 TEST(BedroomTableOne, EveryDimensionWithinBoundsAndItsUncertainty) {
-  if (kSanitized) GTEST_SKIP() << "full 50-view reconstruction: release builds only";
+  if (kSanitized) GTEST_SKIP() << "full 66-view reconstruction: release builds only";
   const auto dir = test::scratch_dir();
   const auto sim = test::run_cli("scan-sim -o '" + (dir / "scan").string() + "'");
   ASSERT_EQ(sim.exit_code, 0) << sim.output;
   ReconstructParameters p;
   p.pdf = false;
   const ReconstructSummary s = reconstruct_case(dir / "scan", dir / "case", p, false);
-  EXPECT_EQ(s.registered, 50u);
+  EXPECT_EQ(s.registered, 66u);  // two rings: 50 views at -10 degrees, 16 at -50
   const auto table = nlohmann::json::parse(std::ifstream(dir / "case" / "measurements" / "table.json"));
   ASSERT_EQ(table["rows"].size(), 12u);
   for (const auto& row : table["rows"]) {

@@ -22,8 +22,7 @@ namespace fs = std::filesystem;
 
 RgbdSequence bedroom_scan(const std::string& name, std::vector<double> pitch_deg) {
   sim::Scene scene = sim::builtin_scene("bedroom");
-  scene.scanner.views = 24;
-  scene.scanner.pitch_deg = std::move(pitch_deg);
+  scene.scanner.set_rings(24, std::move(pitch_deg));
   const fs::path folder = test::scratch_dir() / name;
   sim::write_simulated_scan(scene, folder);
   return open_rgbd_sequence(folder);

@@ -234,7 +234,7 @@ std::string coverage_section(const fs::path& root, const TopView& top) {
         const auto b = top.to_pixel({ox + cell * end, oy + cell * y, z});
         svg += fmt::format("<rect x=\"{:.1f}\" y=\"{:.1f}\" width=\"{:.1f}\" height=\"{:.1f}\" "
                            "fill=\"{}\" fill-opacity=\"0.55\" shape-rendering=\"crispEdges\"/>",
-                           a.x(), a.y(), b.x() - a.x(), b.y() - a.y(),
+                           a.x(), a.y(), b.x() - a.x() + 0.5, b.y() - a.y() + 0.5,  // no seams
                            kind == 'u' ? "#d62728" : "#ff9f1c");
       }
       x = end;

@@ -166,7 +166,15 @@ std::optional<SequenceTraits> traits_from_simulation_json(const fs::path& folder
   t.capture = CaptureKind::TripodTurn;  // scan-sim simulates a tripod turn-around scan
   t.color_registered_to_depth = true;   // rgb/ is rendered on the depth pixel grid
   t.source = "simulation.json (locard scan-sim, " + model + ")";
-  if (j.contains("views") && j.contains("views_per_pitch_row")) {
+  if (j.contains("ring_views")) {  // rings of different sizes
+    const json& rings = j["ring_views"];
+    if (!rings.is_array() || rings.empty()) bad("ring_views", "expected an array of view counts");
+    for (const json& r : rings) {
+      if (!r.is_number_integer() || r.get<long long>() <= 0)
+        bad("ring_views", "each ring's views must be a positive integer");
+      t.ring_sizes.push_back(r.get<std::size_t>());
+    }
+  } else if (j.contains("views") && j.contains("views_per_pitch_row")) {
     if (!j["views"].is_number_integer() || !j["views_per_pitch_row"].is_number_integer())
       bad("views", "\"views\" and \"views_per_pitch_row\" must be integers");
     const auto views = j["views"].get<long long>();

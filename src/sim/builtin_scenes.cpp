@@ -86,8 +86,8 @@ constexpr std::string_view kBedroom = R"scene({
     {"name": "Bed length", "a": [0.95, -1.92, 0.50], "b": [0.95, 0.12, 0.50]},
     {"name": "Electric socket", "a": [0.0, -1.99, 0.0], "b": [0.0, -1.99, 0.39]}
   ],
-  "scanner": {"model": "kinect_v2", "position": [0.0, 0.0, 1.20], "views": 50,
-              "pitch_deg": [-10], "yaw_jitter_deg": 1.0, "position_jitter_m": 0.005, "seed": 1}
+  "scanner": {"model": "kinect_v2", "position": [0.0, 0.0, 1.20], "views": [50, 16],
+              "pitch_deg": [-10, -50], "yaw_jitter_deg": 1.0, "position_jitter_m": 0.005, "seed": 1}
 }
 )scene";
 

@@ -75,7 +75,7 @@ TEST(PhysicsWorld, DroppedBoxRestsOnTheBedroomFloor) {
 // (measured: 1.3 mm above it).
 TEST(PhysicsWorld, DroppedBoxRestsOnTheReconstructedFloor) {
   Scene scene = builtin_scene("bedroom");
-  scene.scanner.views = 16;
+  scene.scanner.set_rings(16, {-10.0});  // one ring, as the bedroom had before its downward ring
   const ScanSimulator simulator(scene);
   const KinectV2Model& model = simulator.model();
   TsdfVolume volume({.voxel_size = 0.02, .truncation = 0.06, .max_depth_m = model.max_range_m,

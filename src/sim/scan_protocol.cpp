@@ -29,9 +29,10 @@ double view_timestamp(std::size_t view_index) {
 Trajectory tripod_scan_trajectory(const ScannerSpec& scanner) {
   constexpr double kDegToRad = std::numbers::pi / 180.0;
   Trajectory trajectory;
-  const int views = std::max(scanner.views, 0);
   std::size_t index = 0;
-  for (const double pitch_deg : scanner.pitch_deg) {
+  for (std::size_t ring = 0; ring < scanner.pitch_deg.size(); ++ring) {
+    const double pitch_deg = scanner.pitch_deg[ring];
+    const int views = std::max(scanner.views_in_ring(ring), 0);
     for (int k = 0; k < views; ++k, ++index) {
       CounterRng rng(scanner.seed, RngStream::Pose, index, 0);
       const double yaw_deg = 360.0 * k / views + scanner.yaw_jitter_deg * rng.normal();

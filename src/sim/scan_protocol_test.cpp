@@ -93,6 +93,24 @@ TEST(ScanProtocol, ViewsEvenlySpacedPerPitchRowWithSeededJitter) {
                jittered[0].T_world_camera.matrix());
 }
 
+// A ring of its own size: 12 views at -50 degrees after 30 level ones, each ring evenly spaced.
+TEST(ScanProtocol, RingsOfTheirOwnSizes) {
+  ScannerSpec spec;
+  spec.ring_views = {30, 12};
+  spec.pitch_deg = {0.0, -50.0};
+  spec.yaw_jitter_deg = 0.0;
+  spec.position_jitter_m = 0.0;
+  const Trajectory t = tripod_scan_trajectory(spec);
+  ASSERT_EQ(t.size(), 42u);
+  for (std::size_t i = 0; i < t.size(); ++i) {
+    const bool down = i >= 30;
+    const double expected_yaw = down ? 360.0 * (i - 30) / 12.0 : 360.0 * i / 30.0;
+    EXPECT_NEAR(wrap_deg(yaw_of(t[i].T_world_camera) - expected_yaw), 0.0, 1e-9) << i;
+    const double pitch = std::asin(t[i].T_world_camera.linear()(2, 2)) / kDeg;
+    EXPECT_NEAR(pitch, down ? -50.0 : 0.0, 1e-9) << i;
+  }
+}
+
 // Points on known planes of the bedroom: the plane is what the pixel's ray must hit.
 struct KnownPoint {
   const char* name;

@@ -54,7 +54,8 @@ void write_provenance(const fs::path& path, const ScanSimulator& sim, bool color
   doc["scene_source"] = scene.source.string();
   doc["seed"] = scene.scanner.seed;
   doc["views"] = sim.view_count();
-  doc["views_per_pitch_row"] = scene.scanner.views;
+  if (scene.scanner.ring_views.empty()) doc["views_per_pitch_row"] = scene.scanner.views;
+  else doc["ring_views"] = scene.scanner.ring_views;
   doc["pitch_deg"] = scene.scanner.pitch_deg;
   doc["position"] = {scene.scanner.position.x(), scene.scanner.position.y(),
                      scene.scanner.position.z()};
@@ -113,8 +114,10 @@ void write_capture(const fs::path& path, const ScanSimulator& sim) {
   doc["depth_sensor"] = to_string(depth_sensor);
   doc["capture"] = to_string(CaptureKind::TripodTurn);
   doc["color_registered_to_depth"] = true;  // rgb/ is rendered on the depth pixel grid
-  doc["ring_sizes"] = std::vector<std::size_t>(scanner.pitch_deg.size(),
-                                               static_cast<std::size_t>(scanner.views));
+  std::vector<std::size_t> rings;
+  for (std::size_t r = 0; r < scanner.pitch_deg.size(); ++r)
+    rings.push_back(static_cast<std::size_t>(scanner.views_in_ring(r)));
+  doc["ring_sizes"] = rings;
   AtomicFile file(path, /*binary=*/false);
   file.stream() << doc.dump(2) << "\n";
   file.commit();

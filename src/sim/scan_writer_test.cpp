@@ -67,13 +67,13 @@ TEST(ScanWriter, BedroomScanLoadsAsTumSequenceWithGroundTruth) {
   const fs::path out = test::scratch_dir() / "scan";
   const Scene scene = builtin_scene("bedroom");
   const ScanWriteSummary summary = write_simulated_scan(scene, out);
-  EXPECT_EQ(summary.views, 50u);
+  EXPECT_EQ(summary.views, 66u);  // 50 at -10 degrees, 16 at -50 (the floor round the tripod)
   EXPECT_EQ(summary.measurements, 12u);
   EXPECT_GT(summary.valid_depth_pixels, summary.depth_pixels * 9 / 10);
 
   EXPECT_EQ(detect_format(out), DatasetFormat::Tum);
   const RgbdSequence seq = read_tum_sequence(out);
-  ASSERT_EQ(seq.frames.size(), 50u);
+  ASSERT_EQ(seq.frames.size(), 66u);
   const CameraIntrinsics kinect = CameraIntrinsics::preset("kinect_v2");
   EXPECT_EQ(seq.intrinsics.width, kinect.width);
   EXPECT_EQ(seq.intrinsics.height, kinect.height);
@@ -84,12 +84,12 @@ TEST(ScanWriter, BedroomScanLoadsAsTumSequenceWithGroundTruth) {
   EXPECT_EQ(seq.intrinsics.matching_preset(), std::optional<std::string>("kinect_v2"));
   EXPECT_DOUBLE_EQ(seq.depth_scale, 1000.0);
   ASSERT_TRUE(seq.has_ground_truth());
-  ASSERT_EQ(seq.ground_truth.size(), 50u);
+  ASSERT_EQ(seq.ground_truth.size(), 66u);
   // capture.json: the reader's traits come from it.
   EXPECT_EQ(seq.traits.sensor, DepthSensorKind::TimeOfFlight);
   EXPECT_EQ(seq.traits.capture, CaptureKind::TripodTurn);
   EXPECT_TRUE(seq.traits.color_registered_to_depth);
-  EXPECT_EQ(seq.traits.ring_sizes, std::vector<std::size_t>{50});
+  EXPECT_EQ(seq.traits.ring_sizes, (std::vector<std::size_t>{50, 16}));
   EXPECT_EQ(seq.traits.source, "capture.json (kinect_v2)");
 
   // The written poses are the simulator's exact poses.
@@ -124,14 +124,15 @@ TEST(ScanWriter, BedroomScanLoadsAsTumSequenceWithGroundTruth) {
   EXPECT_NEAR(measurements["measurements"][10]["distance_m"].get<double>(), 2.04, 1e-12);
   const auto provenance = nlohmann::json::parse(read_bytes(out / "simulation.json"));
   EXPECT_EQ(provenance["seed"], 1);
-  EXPECT_EQ(provenance["views"], 50);
+  EXPECT_EQ(provenance["views"], 66);
+  EXPECT_EQ(provenance["ring_views"], nlohmann::json::array({50, 16}));
   EXPECT_EQ(read_bytes(out / "scene.json"), std::string(builtin_scene_json("bedroom")));
 }
 
 TEST(ScanWriter, ExactScanPutsEveryDepthPixelOnTheSurfaceAtItsGroundTruthPose) {
   Scene scene = builtin_scene("bedroom");
   scene.scanner.noise = false;
-  scene.scanner.views = 5;
+  scene.scanner.set_rings(5, {-10.0});  // one ring, as the bedroom had before its downward ring
   const fs::path out = test::scratch_dir() / "scan";
   write_simulated_scan(scene, out);
   const RgbdSequence seq = read_tum_sequence(out);
@@ -160,7 +161,7 @@ TEST(ScanWriter, ExactScanPutsEveryDepthPixelOnTheSurfaceAtItsGroundTruthPose) {
 
 TEST(ScanWriter, SameSeedGivesByteIdenticalFilesWhateverTheThreadCount) {
   Scene scene = builtin_scene("bedroom");
-  scene.scanner.views = 4;
+  scene.scanner.set_rings(4, {-10.0});  // one ring, as the bedroom had before its downward ring
   const fs::path root = test::scratch_dir();
   ScanWriteOptions options;
   options.color_hd = true;
@@ -188,7 +189,7 @@ TEST(ScanWriter, SameSeedGivesByteIdenticalFilesWhateverTheThreadCount) {
 
 TEST(ScanWriter, HdColourWritesItsOwnIndexAndIntrinsics) {
   Scene scene = builtin_scene("bedroom");
-  scene.scanner.views = 2;
+  scene.scanner.set_rings(2, {-10.0});  // one ring, as the bedroom had before its downward ring
   const fs::path out = test::scratch_dir() / "scan";
   ScanWriteOptions options;
   options.color_hd = true;
@@ -208,7 +209,7 @@ TEST(ScanWriter, RefusesNonEmptyFolderUnlessForced) {
   const fs::path out = test::scratch_dir();
   std::ofstream(out / "notes.txt") << "evidence";
   Scene scene = builtin_scene("bedroom");
-  scene.scanner.views = 1;
+  scene.scanner.set_rings(1, {-10.0});  // one ring, as the bedroom had before its downward ring
   EXPECT_THROW(write_simulated_scan(scene, out), InputError);
   EXPECT_EQ(test::list_folder(out), "notes.txt\n");
   ScanWriteOptions force;

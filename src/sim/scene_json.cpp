@@ -300,10 +300,23 @@ ScannerSpec read_scanner(const json& j, const fs::path& file) {
            "' (known: kinect_v2, kinect_v1)");
   s.model = *parsed;
   s.position = r.vec3_or("position", s.position);
-  const double views = r.number_or("views", s.views);
-  if (views < 1 || views > 100000 || views != std::floor(views))
-    r.fail(r.place("views") + ": expected an integer from 1 to 100000");
-  s.views = static_cast<int>(views);
+  // "views": one count for every pitch row, or an array with one count a row.
+  const auto view_count = [&](const json& v, const std::string& where) {
+    const double views = r.number(v, where);
+    if (views < 1 || views > 100000 || views != std::floor(views))
+      r.fail(r.place(where) + ": expected an integer from 1 to 100000");
+    return static_cast<int>(views);
+  };
+  if (const json* views = r.optional("views")) {
+    if (views->is_array()) {
+      if (views->empty()) r.fail(r.place("views") + ": expected one view count a pitch row");
+      for (std::size_t i = 0; i < views->size(); ++i)
+        s.ring_views.push_back(view_count((*views)[i], "views[" + std::to_string(i) + "]"));
+      s.views = s.ring_views.front();
+    } else {
+      s.views = view_count(*views, "views");
+    }
+  }
   if (const json* pitch = r.optional("pitch_deg")) {
     if (!pitch->is_array() || pitch->empty())
       r.fail(r.place("pitch_deg") + ": expected a non-empty array of angles in degrees, found " +
@@ -315,6 +328,10 @@ ScannerSpec read_scanner(const json& j, const fs::path& file) {
       s.pitch_deg.push_back(p);
     }
   }
+  if (!s.ring_views.empty() && s.ring_views.size() != s.pitch_deg.size())
+    r.fail(r.place("views") + fmt::format(": {} view counts for {} pitch rows (one a row, or one "
+                                          "number for all)",
+                                          s.ring_views.size(), s.pitch_deg.size()));
   s.yaw_jitter_deg = r.non_negative_or("yaw_jitter_deg", s.yaw_jitter_deg);
   s.position_jitter_m = r.non_negative_or("position_jitter_m", s.position_jitter_m);
   if (const json* seed = r.optional("seed")) {
@@ -461,7 +478,8 @@ std::string scene_json(const Scene& scene) {
   ordered_json scanner;
   scanner["model"] = to_string(sc.model);
   scanner["position"] = vec3_json(sc.position);
-  scanner["views"] = sc.views;
+  if (sc.ring_views.empty()) scanner["views"] = sc.views;
+  else scanner["views"] = sc.ring_views;
   scanner["pitch_deg"] = sc.pitch_deg;
   scanner["yaw_jitter_deg"] = sc.yaw_jitter_deg;
   scanner["position_jitter_m"] = sc.position_jitter_m;

@@ -60,6 +60,9 @@ TEST(SceneJson, BedroomContents) {
   EXPECT_EQ(s.objects.size(), 27u);
   EXPECT_EQ(s.measurements.size(), 12u);
   EXPECT_EQ(s.scanner.views, 50);
+  EXPECT_EQ(s.scanner.ring_views, (std::vector<int>{50, 16}));  // a downward ring for the floor
+  EXPECT_EQ(s.scanner.pitch_deg, (std::vector<double>{-10.0, -50.0}));
+  EXPECT_EQ(s.scanner.total_views(), 66u);
   EXPECT_EQ(s.scanner.seed, 1u);
   EXPECT_TRUE(s.scanner.noise);
   const SceneObject& bed = s.objects.front();
@@ -70,6 +73,17 @@ TEST(SceneJson, BedroomContents) {
   EXPECT_EQ(bed.color, (Rgb8{150, 30, 30}));
   EXPECT_THAT(builtin_scene_names(), ::testing::Contains("bedroom"));
   EXPECT_THROW(builtin_scene("kitchen"), InputError);
+}
+
+// Rings of their own sizes survive a write and a read, and plan that many poses a ring.
+TEST(SceneJson, RingsOfTheirOwnSizesRoundTrip) {
+  const Scene s = parse_scene(R"({"room": {"size": [3, 4, 2.5]},
+      "scanner": {"views": [30, 12], "pitch_deg": [0, -45]}})", "rings.json");
+  EXPECT_EQ(s.scanner.ring_views, (std::vector<int>{30, 12}));
+  EXPECT_EQ(s.scanner.total_views(), 42u);
+  const Scene back = parse_scene(scene_json(s), "written.json");
+  EXPECT_EQ(back.scanner.ring_views, s.scanner.ring_views);
+  EXPECT_EQ(back.scanner.pitch_deg, s.scanner.pitch_deg);
 }
 
 TEST(SceneJson, DefaultsForOptionalKeys) {
@@ -178,6 +192,13 @@ TEST(SceneJson, WrongTypesAndValuesAreNamed) {
               HasSubstr("not both"));
   EXPECT_THAT(error_of(R"({"room": {"size": [3, 4, 2]}, "scanner": {"pitch_deg": []}})"),
               HasSubstr("scanner.pitch_deg"));
+  // One view count a pitch row, or one for all.
+  EXPECT_THAT(error_of(R"({"room": {"size": [3, 4, 2]}, "scanner": {"views": [40, 20], "pitch_deg": [0]}})"),
+              AllOf(HasSubstr("scanner.views"), HasSubstr("2 view counts for 1 pitch rows")));
+  EXPECT_THAT(error_of(R"({"room": {"size": [3, 4, 2]}, "scanner": {"views": [40, 0], "pitch_deg": [0, -45]}})"),
+              HasSubstr("scanner.views[1]"));
+  EXPECT_THAT(error_of(R"({"room": {"size": [3, 4, 2]}, "scanner": {"views": []}})"),
+              HasSubstr("scanner.views"));
   EXPECT_THAT(error_of(R"([1, 2, 3])"), HasSubstr("scene: expected an object, found an array"));
 }
 

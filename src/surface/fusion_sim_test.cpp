@@ -15,7 +15,7 @@ namespace {
 
 TEST(FusionOnSimulatedBedroom, MeetsAccuracyAndCompletenessOfTheVisibleSurface) {
   sim::Scene scene = sim::builtin_scene("bedroom");
-  scene.scanner.views = 20;
+  scene.scanner.set_rings(20, {-10.0});  // one ring, as the bedroom had before its downward ring
   const sim::ScanSimulator simulator(scene);
   const sim::KinectV2Model& model = simulator.model();
   TsdfVolume volume({.voxel_size = 0.015, .truncation = 0.05, .max_depth_m = model.max_range_m,

@@ -20,7 +20,7 @@ namespace {
 // averaged on a 2 cm grid, with normals and curvature.
 PointCloud bedroom_cloud() {
   sim::Scene scene = sim::builtin_scene("bedroom");
-  scene.scanner.views = 16;
+  scene.scanner.set_rings(16, {-10.0});  // one ring, as the bedroom had before its downward ring
   const sim::ScanSimulator simulator(scene);
   PointCloud merged;
   DepthToPointsOptions options;

@@ -215,19 +215,19 @@ async function mainTest() {
       assert.ok(colour.reddish > 0.01, `no red or brown in the rendered bedroom: ${JSON.stringify(colour)}`);
 
       // --- coverage: the floor no view observed, from reconstruct's coverage/floor_coverage.json.
-      // The bedroom's ring at -10 degrees leaves the floor about the tripod unseen; seen from
-      // above, the overlay turns that disc red.
+      // The bedroom's two rings (-10 and -50 degrees) see most of the floor; under the bed and
+      // the table it is hidden: seen from above, the overlay turns that amber and red.
       const coverage = await page.evaluate(() => window.locardViewer.state.coverage);
       log(`coverage: ${JSON.stringify(coverage)}`);
-      assert.ok(coverage && coverage.seenShare > 0.05 && coverage.seenShare < 0.9, `coverage: ${JSON.stringify(coverage)}`);
-      assert.ok(coverage.advice.some((a) => a.includes('add a ring at pitch')), `advice: ${coverage.advice}`);
+      assert.ok(coverage && coverage.seenShare > 0.4 && coverage.seenShare < 0.95, `coverage: ${JSON.stringify(coverage)}`);
+      assert.ok(coverage.advice.some((a) => a.includes('hidden under or behind objects')), `advice: ${coverage.advice}`);
       await page.evaluate(() => window.locardViewer.lookAt([0, 0, 0], [0, -0.01, 7]));
       const without = await canvasColour(page);
       await page.evaluate(() => document.getElementById('show-coverage').click());
       const withOverlay = await canvasColour(page);
       await shot(page, 'viewer-08-coverage.png');
       log(`coverage overlay: red/brown ${(100 * without.reddish).toFixed(1)} % -> ${(100 * withOverlay.reddish).toFixed(1)} % of the canvas`);
-      assert.ok(withOverlay.reddish > without.reddish + 0.03, `the unseen floor is not drawn: ${without.reddish} -> ${withOverlay.reddish}`);
+      assert.ok(withOverlay.reddish > without.reddish + 0.01, `the unseen floor is not drawn: ${without.reddish} -> ${withOverlay.reddish}`);
       await page.evaluate(() => document.getElementById('show-coverage').click());
 
       // --- measurement between two known points ------------------------------------------

@@ -82,7 +82,24 @@ struct Measurement {
 struct ScannerSpec {
   ScannerModel model = ScannerModel::KinectV2;
   Eigen::Vector3d position{0.0, 0.0, 1.2};
-  int views = 50;                         // per pitch row
+  int views = 50;                         // per pitch row, unless ring_views says otherwise
+  // Views of each pitch row, in pitch_deg's order (empty: `views` for every row). A downward
+  // ring needs fewer views than the level one: its footprint on the floor turns less per step.
+  std::vector<int> ring_views;
+  int views_in_ring(std::size_t ring) const {
+    return ring < ring_views.size() ? ring_views[ring] : views;
+  }
+  // One row of `views` at each pitch (ring_views cleared).
+  void set_rings(int views_per_ring, std::vector<double> pitches) {
+    views = views_per_ring;
+    ring_views.clear();
+    pitch_deg = std::move(pitches);
+  }
+  std::size_t total_views() const {
+    std::size_t n = 0;
+    for (std::size_t r = 0; r < pitch_deg.size(); ++r) n += static_cast<std::size_t>(views_in_ring(r));
+    return n;
+  }
   std::vector<double> pitch_deg{0.0};     // one row per entry; positive looks up
   double yaw_jitter_deg = 1.0;            // standard deviation
   double position_jitter_m = 0.005;      // standard deviation, per axis
