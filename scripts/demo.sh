@@ -19,6 +19,8 @@ echo
 echo "== 4. the forensic case: one command from scan to case file, measurements, integrity, report"
 "$locard" reconstruct "$out/scan" -o "$out/case" --force
 "$locard" marker add "$out/case" --label "bullet hole (wall)" --at 1.92,-0.3,1.4 --no-report
+# On the floor 1.3 m from the tripod: observed by the scan's downward ring (coverage/).
+"$locard" marker add "$out/case" --label "cartridge case" --at 0.4,-1.2,0.0 --no-report
 "$locard" trajectory "$out/case" --name "shot 1" --point 0,0,1.2 --point 0.4,0.05,1.25 --no-report
 "$locard" verify "$out/case"
 echo
@@ -31,7 +33,7 @@ if [ ! -f "$case_dir/mesh/mesh.ply" ]; then
   mkdir -p "$case_dir/mesh"
   cp "$out/scan/scene.ply" "$case_dir/mesh/mesh.ply"
 fi
-for scenario in bedroom-shot bedroom-falling-object; do
+for scenario in bedroom-shot bedroom-falling-object bedroom-person; do
   "$locard" simulate "$case_dir" "$(dirname "$0")/../examples/scenarios/$scenario.json" --force
 done
 echo "demo outputs in $out/ (open the .ply files in CloudCompare, MeshLab or Blender)"
