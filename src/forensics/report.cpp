@@ -268,6 +268,86 @@ std::string coverage_section(const fs::path& root, const TopView& top) {
   return h;
 }
 
+// One dimension line of the plan: the ends' snapped points (a measurement JSON's "a"/"b").
+struct PlanDimension {
+  std::string name, value;
+  Vector3d a, b;
+};
+
+std::optional<PlanDimension> plan_dimension(const json& m, const std::string& name,
+                                            const std::string& value) {
+  if (!m.contains("a") || !m.contains("b") || !m["a"].contains("snapped") ||
+      !m["b"].contains("snapped"))
+    return std::nullopt;
+  const auto vec = [](const json& v) { return Vector3d(v[0].get<double>(), v[1].get<double>(), v[2].get<double>()); };
+  return PlanDimension{name, value, vec(m["a"]["snapped"]), vec(m["b"]["snapped"])};
+}
+
+// The measurements drawn on the plan: Table I's measured rows and the other point-to-point
+// measurements (not withdrawn), each a numbered dimension line with ticks at its ends; a
+// measurement that is nearly vertical (under 8 px long on the plan) is listed, not drawn.
+std::string floor_plan_section(const fs::path& root, const TopView& top) {
+  std::vector<PlanDimension> dims;
+  if (const json t = read_json_or_null(root / "measurements" / "table.json"); !t.is_null())
+    for (const json& r : t["rows"]) {
+      if (r.contains("not_measured") || !r.value("ends_snapped", true)) continue;
+      if (auto d = plan_dimension(r["measurement"], r.value("name", ""),
+                                  fmt::format("{:.1f} cm", 100.0 * r.value("model_m", 0.0))))
+        dims.push_back(*d);
+    }
+  if (const json o = read_json_or_null(root / "measurements" / "measurements.json"); !o.is_null())
+    for (const json& m : o["measurements"]) {
+      if (m.contains("withdrawn") || m.value("kind", "") != "point_to_point") continue;
+      const bool snapped = m.contains("a") && m.contains("b") &&
+                           m["a"].value("snapped_to_feature", false) &&
+                           m["b"].value("snapped_to_feature", false);
+      if (auto d = plan_dimension(m, m.value("name", ""),
+                                  fmt::format("{:.1f} cm{}", 100.0 * m.value("distance_m", 0.0),
+                                              snapped ? "" : " (an end not snapped: as picked)")))
+        dims.push_back(*d);
+    }
+  std::string h = "<h2 id=\"floor-plan\">Dimensioned floor plan</h2>\n";
+  if (dims.empty()) {
+    h += "<p class=\"note\">No measurements to draw yet (<code>locard measure</code>).</p>\n";
+    return h;
+  }
+  std::string svg = fmt::format(
+      "<svg id=\"floor-plan-plot\" xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" "
+      "height=\"{1}\" viewBox=\"0 0 {0} {1}\"><image width=\"{0}\" height=\"{1}\" href=\"{2}\" "
+      "opacity=\"0.45\"/>",
+      top.width, top.height, png_data_uri(top.image));
+  std::string legend = "<table id=\"floor-plan-legend\"><tr><th>#</th><th>measurement</th>"
+                       "<th>model</th><th>on the plan</th></tr>";
+  for (std::size_t k = 0; k < dims.size(); ++k) {
+    const auto p = top.to_pixel(dims[k].a), q = top.to_pixel(dims[k].b);
+    const Eigen::Vector2d d = q - p;
+    const bool drawn = d.norm() >= 8.0;
+    if (drawn) {
+      const Eigen::Vector2d n = Eigen::Vector2d(-d.y(), d.x()).normalized() * 5.0;
+      const Eigen::Vector2d mid = 0.5 * (p + q);
+      svg += fmt::format(
+          "<g class=\"dimension\" stroke=\"#0b3d91\" stroke-width=\"1.4\"><line x1=\"{:.1f}\" "
+          "y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\"/><line x1=\"{:.1f}\" y1=\"{:.1f}\" "
+          "x2=\"{:.1f}\" y2=\"{:.1f}\"/><line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" "
+          "y2=\"{:.1f}\"/></g><circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"7\" fill=\"#fff\" "
+          "stroke=\"#0b3d91\"/><text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"9\" "
+          "text-anchor=\"middle\" fill=\"#0b3d91\">{}</text>",
+          p.x(), p.y(), q.x(), q.y(), p.x() - n.x(), p.y() - n.y(), p.x() + n.x(), p.y() + n.y(),
+          q.x() - n.x(), q.y() - n.y(), q.x() + n.x(), q.y() + n.y(), mid.x(), mid.y(), mid.x(),
+          mid.y() + 3, k + 1);
+    }
+    legend += fmt::format("<tr><td class=n>{}</td><td>{}</td><td class=n>{}</td><td>{}</td></tr>",
+                          k + 1, esc(dims[k].name), dims[k].value,
+                          drawn ? "drawn" : "nearly vertical: not drawn");
+  }
+  svg += map_furniture_svg(top) + "</svg>";
+  h += "<figure>" + svg +
+       "<figcaption>Orthographic plan (the case frame from above, z up): each measurement's "
+       "snapped ends joined by a numbered dimension line; lengths are the 3D distances in the "
+       "legend, not their projections</figcaption></figure>\n" + legend + "</table>\n";
+  return h;
+}
+
 std::string svg_text(const std::string& svg) {
   const auto p = svg.find("<svg");
   return p == std::string::npos ? svg : svg.substr(p);
@@ -541,6 +621,8 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
     }
     h += "</table>\n";
   }
+
+  h += floor_plan_section(root, top);
 
   // Evidence
   h += "<h2 id=\"evidence\">Evidence markers</h2>\n";

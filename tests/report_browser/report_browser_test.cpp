@@ -56,6 +56,13 @@ TEST(ReportBrowser, PlotAndTableArePresentInHeadlessChromium) {
   EXPECT_NE(dom.find("id=\"measurement-table\""), std::string::npos);
   EXPECT_NE(dom.find("<td>Window</td>"), std::string::npos);
   EXPECT_NE(dom.find("id=\"trajectory-plot\""), std::string::npos);
+  // Plans carry a scale bar and axes; the measured rows are drawn on the dimensioned plan; the
+  // coverage section is there (its plot, or why it was not computed).
+  EXPECT_NE(dom.find("class=\"scale-bar\""), std::string::npos);
+  EXPECT_NE(dom.find("class=\"axes\""), std::string::npos);
+  EXPECT_NE(dom.find("id=\"floor-plan-plot\""), std::string::npos);
+  EXPECT_NE(dom.find("class=\"dimension\""), std::string::npos);
+  EXPECT_NE(dom.find("id=\"coverage\""), std::string::npos);
   EXPECT_NE(dom.find("id=\"output-hashes\""), std::string::npos);
 
   const fs::path shot = dir / "report-screenshot.png";
