@@ -223,6 +223,7 @@ std::string coverage_section(const fs::path& root, const TopView& top) {
   const double cell = c.value("cell_m", 0.05), z = c.value("floor_z_m", 0.0);
   const double ox = c["origin"][0].get<double>(), oy = c["origin"][1].get<double>();
   const auto& rows = c["rows"];
+  std::string unseen, hidden;
   for (std::size_t y = 0; y < rows.size(); ++y) {
     const std::string row = rows[y].get<std::string>();
     for (std::size_t x = 0; x < row.size();) {  // runs of one kind, one rectangle each
@@ -232,14 +233,18 @@ std::string coverage_section(const fs::path& root, const TopView& top) {
       if (kind == 'u' || kind == 'h') {
         const auto a = top.to_pixel({ox + cell * x, oy + cell * (y + 1), z});
         const auto b = top.to_pixel({ox + cell * end, oy + cell * y, z});
-        svg += fmt::format("<rect x=\"{:.1f}\" y=\"{:.1f}\" width=\"{:.1f}\" height=\"{:.1f}\" "
-                           "fill=\"{}\" fill-opacity=\"0.55\" shape-rendering=\"crispEdges\"/>",
-                           a.x(), a.y(), b.x() - a.x() + 0.5, b.y() - a.y() + 0.5,  // no seams
-                           kind == 'u' ? "#d62728" : "#ff9f1c");
+        // Rectangles of one kind are one path, a little over a cell each way: a path's own
+        // overlaps are painted once, so neither seams nor darker overlaps show.
+        (kind == 'u' ? unseen : hidden) +=
+            fmt::format("M{:.1f},{:.1f}h{:.1f}v{:.1f}h{:.1f}z", a.x() - 0.3, a.y() - 0.3,
+                        b.x() - a.x() + 0.6, b.y() - a.y() + 0.6, -(b.x() - a.x() + 0.6));
       }
       x = end;
     }
   }
+  svg += fmt::format("<path d=\"{}\" fill=\"#d62728\" fill-opacity=\"0.55\"/><path d=\"{}\" "
+                     "fill=\"#ff9f1c\" fill-opacity=\"0.55\"/>",
+                     unseen, hidden);
   if (c.contains("tripod")) {
     const json& t = c["tripod"];
     const auto p = top.to_pixel({t["centre"][0].get<double>(), t["centre"][1].get<double>(), z});
