@@ -22,6 +22,7 @@ namespace fx = locard::forensics;
 
 struct MarkerCli {
   std::string case_dir;
+  std::vector<std::string> floor;  // `locard level`
   std::string label, at, note;
   bool no_snap = false;
   std::string origin, x_point, xy_point, description = "case frame";
@@ -105,7 +106,58 @@ int run_frame(const MarkerCli& o) {
   return 0;
 }
 
+// `locard level CASE --floor P --floor P --floor P ...`: the case frame levelled on picked floor
+// points (fx::level_frame); the markers' frame, so every command that reads or prints the case
+// frame, the report's top view and plan, follow it.
+int run_level(const MarkerCli& o) {
+  const auto t0 = std::chrono::steady_clock::now();
+  fx::CaseFolder folder = fx::CaseFolder::open(o.case_dir, fx::CaseAccess::Change);
+  fx::MarkerSet set = fx::read_markers(folder.root() / "evidence" / "markers.json");
+  const fx::CaseModel model = fx::CaseModel::load(folder);
+  std::vector<Eigen::Vector3d> points;
+  for (const std::string& text : o.floor) {
+    // Onto the model's surface (as a marker is): the plane is the model's floor, not the typed
+    // coordinates; a point off the model is refused, naming it.
+    points.push_back(fx::snap_point(model, parse_case_point(text, set, o.frame)).snapped);
+  }
+  const fx::LevelledFrame level = fx::level_frame(set.frame, points);
+  set.frame = level.frame;
+  save(folder, set, "level",
+       {{"floor_points", o.floor},
+        {"points_frame", o.frame == PointFrame::Case ? "case" : "world"},
+        {"tilt_deg", level.tilt_deg},
+        {"rms_m", level.rms_m},
+        {"max_m", level.max_m}},
+       std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(), !o.no_report);
+  fmt::print("level: the floor through {} points, rms {:.1f} mm (farthest {:.1f} mm); the case "
+             "frame's z turned {:.2f} deg onto its normal, origin on the floor\n",
+             points.size(), 1000.0 * level.rms_m, 1000.0 * level.max_m, level.tilt_deg);
+  const Eigen::Vector3d z = level.frame.axes.col(2), c = level.frame.origin;
+  fmt::print("level: up (world) = ({:.4f}, {:.4f}, {:.4f}), origin (world) = ({:.4f}, {:.4f}, "
+             "{:.4f})\n",
+             z.x(), z.y(), z.z(), c.x(), c.y(), c.z());
+  print_log_head(folder.root());
+  return 0;
+}
+
 }  // namespace
+
+void register_level(CLI::App& app, GlobalOptions&) {
+  auto o = std::make_shared<MarkerCli>();
+  CLI::App* cmd = app.add_subcommand(
+      "level", "Level a case on picked floor points: the case frame's z becomes the floor's "
+               "normal (least-squares plane through 3 or more points) and its origin drops onto "
+               "the floor; a logged step. Top views, plans and case-frame coordinates follow");
+  cmd->add_option("case", o->case_dir, "Case folder")->required();
+  cmd->add_option("--floor", o->floor, "x,y,z of a floor point or a marker on the floor "
+                                       "(case frame unless --frame world); 3 or more, spread")
+      ->required()
+      ->expected(1)
+      ->take_all();
+  add_point_frame_option(cmd, o->frame);
+  cmd->add_flag("--no-report", o->no_report, "Do not rewrite the report");
+  set_runner(cmd, [o] { return run_level(*o); });
+}
 
 void register_marker(CLI::App& app, GlobalOptions&) {
   auto o = std::make_shared<MarkerCli>();

@@ -35,6 +35,7 @@ void register_all(CLI::App& app, GlobalOptions& global) {
   register_verify(app, global);
   register_measure(app, global);
   register_marker(app, global);
+  register_level(app, global);
   register_trajectory(app, global);
   register_simulate(app, global);
   register_view(app, global);

@@ -38,6 +38,7 @@ void register_reconstruct(CLI::App&, GlobalOptions&);
 void register_verify(CLI::App&, GlobalOptions&);
 void register_measure(CLI::App&, GlobalOptions&);
 void register_marker(CLI::App&, GlobalOptions&);
+void register_level(CLI::App&, GlobalOptions&);
 void register_trajectory(CLI::App&, GlobalOptions&);
 void register_simulate(CLI::App&, GlobalOptions&);
 void register_view(CLI::App&, GlobalOptions&);

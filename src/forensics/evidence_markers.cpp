@@ -11,9 +11,11 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <cmath>
 #include <fstream>
 #include <utility>
 
@@ -49,6 +51,50 @@ CaseFrame CaseFrame::from_points(const Eigen::Vector3d& origin, const Eigen::Vec
   f.axes.col(2) = ex.cross(ey);
   f.description = std::move(description);
   return f;
+}
+
+LevelledFrame level_frame(const CaseFrame& current, const std::vector<Eigen::Vector3d>& floor_points) {
+  if (floor_points.size() < 3)
+    throw InputError(fmt::format("level: {} floor point(s) given, at least 3 needed (--floor x,y,z "
+                                 "three times or more)",
+                                 floor_points.size()));
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : floor_points) centre += p;
+  centre /= static_cast<double>(floor_points.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : floor_points) scatter += (p - centre) * (p - centre).transpose();
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(scatter);
+  // Spread: the second axis of the points' scatter (RMS along it) must span a floor patch, or
+  // the plane's tilt about the points' line is a guess.
+  const double spread = std::sqrt(eig.eigenvalues()(1) / static_cast<double>(floor_points.size()));
+  if (spread < 0.05)
+    throw InputError(fmt::format("level: the floor points lie along a line (spread {:.1f} cm "
+                                 "across it, at least 5 cm needed): pick them around the room",
+                                 100.0 * spread));
+  Eigen::Vector3d n = eig.eigenvectors().col(0).normalized();
+  const Eigen::Vector3d old_z = current.axes.col(2);
+  if (n.dot(old_z) < 0) n = -n;
+  LevelledFrame out;
+  for (const Eigen::Vector3d& p : floor_points) {
+    const double d = std::abs(n.dot(p - centre));
+    out.rms_m += d * d;
+    out.max_m = std::max(out.max_m, d);
+  }
+  out.rms_m = std::sqrt(out.rms_m / static_cast<double>(floor_points.size()));
+  out.tilt_deg = std::acos(std::clamp(n.dot(old_z), -1.0, 1.0)) * 180.0 / M_PI;
+  Eigen::Vector3d x = current.axes.col(0) - current.axes.col(0).dot(n) * n;
+  if (x.norm() < 1e-6) x = current.axes.col(1) - current.axes.col(1).dot(n) * n;  // x was vertical
+  CaseFrame& f = out.frame;
+  f.axes.col(0) = x.normalized();
+  f.axes.col(2) = n;
+  f.axes.col(1) = n.cross(f.axes.col(0));
+  f.origin = current.origin - n.dot(current.origin - centre) * n;
+  f.description = fmt::format("levelled from {} picked floor points (rms {:.1f} mm about their "
+                              "plane; z turned {:.2f} deg from the frame before, origin on the "
+                              "floor); before: {}",
+                              floor_points.size(), 1000.0 * out.rms_m, out.tilt_deg,
+                              current.description);
+  return out;
 }
 
 const EvidenceMarker& MarkerSet::add(EvidenceMarker marker) {

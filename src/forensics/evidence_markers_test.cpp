@@ -3,6 +3,7 @@
 
 #include <locard/core/error.hpp>
 
+#include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <gtest/gtest.h>
 
@@ -78,6 +79,51 @@ TEST(MarkerSet, JsonAndCsvRoundTrip) {
   EXPECT_TRUE(read_markers(dir / "none.json").markers.empty());
   { std::ofstream(dir / "bad.json") << "{\"frame\": 3}"; }
   EXPECT_THROW(read_markers(dir / "bad.json"), InputError);
+}
+
+// `locard level`: floor points picked on a floor tilted 7 degrees about a skew axis (with 1 mm
+// of noise) level a frame that was off by that tilt: its z lands on the floor's normal within
+// 0.2 degree, its origin on the floor, its x in the floor plane under the old x.
+TEST(LevelFrame, PickedFloorPointsTurnZOntoTheFloorsNormal) {
+  const Eigen::Matrix3d tilt =
+      Eigen::AngleAxisd(7.0 * M_PI / 180.0, Vector3d(1, 2, 0).normalized()).toRotationMatrix();
+  const Vector3d normal = tilt * Vector3d::UnitZ(), floor_point(0.3, -0.2, -1.1);
+  std::vector<Vector3d> picks;
+  for (int i = 0; i < 6; ++i) {
+    const double a = 2.0 * M_PI * i / 6.0;
+    const Vector3d in_plane = tilt * Vector3d(1.5 * std::cos(a), 1.2 * std::sin(a), 0.0);
+    picks.push_back(floor_point + in_plane + 0.001 * ((i % 3) - 1) * normal);
+  }
+  CaseFrame current;  // the world frame: z off the floor's normal by 7 degrees
+  current.origin = Vector3d(0.5, 0.5, 0.4);
+  const LevelledFrame level = level_frame(current, picks);
+  EXPECT_NEAR(level.tilt_deg, 7.0, 0.2);
+  const double off_deg = std::acos(std::min(1.0, level.frame.axes.col(2).dot(normal))) * 180.0 / M_PI;
+  EXPECT_LT(off_deg, 0.2);
+  EXPECT_NEAR(normal.dot(level.frame.origin - floor_point), 0.0, 0.002);  // on the floor
+  EXPECT_NEAR(level.frame.axes.col(0).dot(level.frame.axes.col(2)), 0.0, 1e-12);
+  EXPECT_GT(level.frame.axes.col(0).dot(Vector3d::UnitX()), 0.99);  // under the old x
+  EXPECT_NEAR(level.frame.axes.determinant(), 1.0, 1e-12);           // right-handed
+  EXPECT_LT(level.rms_m, 0.002);
+  // A picked point in the new frame reads z = 0 on the floor.
+  EXPECT_NEAR(level.frame.to_local(picks[0]).z(), 0.0, 0.002);
+
+  // The normal is taken on the side of the frame's z: a frame upside down stays upside down.
+  CaseFrame flipped;
+  flipped.axes.col(1) = -Vector3d::UnitY();
+  flipped.axes.col(2) = -Vector3d::UnitZ();
+  EXPECT_LT(level_frame(flipped, picks).frame.axes.col(2).dot(normal), -0.99);
+}
+
+TEST(LevelFrame, TooFewOrCollinearPointsAreRefused) {
+  const CaseFrame current;
+  EXPECT_THROW(level_frame(current, {Vector3d(0, 0, 0), Vector3d(1, 0, 0)}), InputError);
+  try {
+    level_frame(current, {Vector3d(0, 0, 0), Vector3d(1, 0.01, 0), Vector3d(2, 0, 0), Vector3d(3, 0.01, 0)});
+    ADD_FAILURE() << "collinear points accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("along a line"), std::string::npos) << e.what();
+  }
 }
 
 }  // namespace

@@ -416,11 +416,20 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
   const TriangleMesh mesh = folder.load_mesh();
   const sim::Raycaster rc(mesh);
   const Trajectory trajectory = read_tum_trajectory(root / "alignment" / "trajectory.txt");
-  // Up: +z in a levelled case (reconstruct levels from the data's gravity or the floor);
-  // otherwise the mean of the cameras' -y axes (the sensor is held roughly level).
+  // Up: the case frame's z where one was chosen (`locard level` on picked floor points, or
+  // `marker frame` on a room corner); else +z in a levelled case (reconstruct levels from the
+  // data's gravity or the floor); otherwise the mean of the cameras' -y axes (the sensor is held
+  // roughly level).
   Vector3d up = Vector3d::Zero();
   const std::string frame_text = case_json.value("world_frame", "");
-  if (frame_text.find("levelled") != std::string::npos ||
+  const json marker_file = read_json_or_null(root / "evidence" / "markers.json");
+  const Vector3d frame_z =
+      !marker_file.is_null() && marker_file.contains("frame") && marker_file["frame"].contains("z_axis")
+          ? json_vec3(marker_file["frame"]["z_axis"], "evidence/markers.json: frame.z_axis")
+          : Vector3d::UnitZ();
+  if ((frame_z - Vector3d::UnitZ()).norm() > 1e-9) {  // a frame was chosen that turns z
+    up = frame_z.normalized();
+  } else if (frame_text.find("levelled") != std::string::npos ||
       frame_text.find("level as given") != std::string::npos) {
     up = Vector3d::UnitZ();
   } else {

@@ -38,6 +38,18 @@ struct CaseFrame {
                                const Eigen::Vector3d& in_xy_plane, std::string description);
 };
 
+// `locard level`: the frame `current` turned so its z is the normal of the floor through
+// `floor_points` (world, at least 3, spread over at least 10 cm both ways; least-squares plane,
+// normal on current's +z side) and its origin dropped onto that floor; x is current's x laid
+// into the floor plane. Throws InputError naming what is wrong with the points.
+struct LevelledFrame {
+  CaseFrame frame;
+  double tilt_deg = 0.0;   // between current's z and the floor's normal
+  double rms_m = 0.0;      // of the points about the fitted plane
+  double max_m = 0.0;      // the farthest point from it
+};
+LevelledFrame level_frame(const CaseFrame& current, const std::vector<Eigen::Vector3d>& floor_points);
+
 struct EvidenceMarker {
   int number = 0;  // 1, 2, 3 ... never reused
   std::string label;
