@@ -430,6 +430,35 @@ TEST_F(ReconstructCli, EvidenceIsRenamedAndWithdrawnAndPointsAreReadInTheCaseFra
   EXPECT_EQ(r.exit_code, 0) << r.output;
 }
 
+// Issue 15 item 2: `locard level` on floor points picked in the 8 views' model. A frame tilted
+// about 6 degrees (`marker frame`) is levelled back: z within half a degree of the bedroom's
+// up, the origin on its floor; a logged step; fewer than 3 points or a point off the model are
+// refused (exit 2) and change nothing.
+TEST_F(ReconstructCli, LevelTurnsTheCaseFrameOntoPickedFloorPoints) {
+  const fs::path c = *dir_ / "level-case";
+  ASSERT_EQ(run_cli(reconstruct_args(c)).exit_code, 0);
+  auto r = run_cli("marker frame " + q(c) + " --origin 0,0,0 --x-point 1,0,0.1 --xy-point 0,1,0.05 "
+                   "--frame world --description tilted --no-report");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string floor = " --floor 1.6,0.6,0 --floor 1.5,1.0,0 --floor 1.0,1.2,0 --floor 1.6,0.3,0";
+  r = run_cli("level " + q(c) + " --floor 1.6,0.6,0 --floor 1.5,1.0,0 --frame world --no-report");
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("at least 3"), std::string::npos) << r.output;
+  r = run_cli("level " + q(c) + floor + " --floor 0,0,0.6 --frame world --no-report");  // in the air
+  EXPECT_EQ(r.exit_code, 2) << r.output;
+  EXPECT_NE(r.output.find("off the model"), std::string::npos) << r.output;
+  r = run_cli("level " + q(c) + floor + " --frame world");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const nlohmann::json frame = nlohmann::json::parse(read(c / "evidence" / "markers.json"))["frame"];
+  EXPECT_GT(frame["z_axis"][2].get<double>(), std::cos(0.5 * M_PI / 180.0)) << frame.dump();
+  EXPECT_NEAR(frame["origin"][2].get<double>(), 0.0, 0.005) << frame.dump();
+  EXPECT_NE(frame["description"].get<std::string>().find("levelled from 4 picked floor points"),
+            std::string::npos);
+  EXPECT_NE(read(c / "log.jsonl").find("\"step\":\"level\""), std::string::npos);
+  r = run_cli("verify " + q(c));
+  EXPECT_EQ(r.exit_code, 0) << r.output;
+}
+
 // Issue 15 item 7: the report names the case as an exhibit does (`locard case set`, a logged
 // step), prints on A4, lists the case's simulations labelled illustrative - refreshed by
 // `simulate` - and ends with an appendix headed by the manifest's and the log head's hashes.
