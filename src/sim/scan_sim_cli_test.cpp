@@ -79,7 +79,7 @@ TEST(ScanSimCli, SameSeedSameBytesAndOptionsReachTheOutput) {
   for (const char* name : {"a", "b"}) {
     const CommandResult r = run_cli("scan-sim bedroom -o " + quoted(dir / name) + options);
     ASSERT_EQ(r.exit_code, 0) << r.output;
-    EXPECT_THAT(r.output, HasSubstr("3 views"));
+    EXPECT_THAT(r.output, HasSubstr("6 views"));  // 3 in each of the bedroom's two rings
   }
   std::size_t files = 0;
   for (const auto& e : fs::recursive_directory_iterator(dir / "a")) {
@@ -88,10 +88,11 @@ TEST(ScanSimCli, SameSeedSameBytesAndOptionsReachTheOutput) {
     EXPECT_EQ(read_bytes(e.path()), read_bytes(dir / "b" / rel)) << rel;
     ++files;
   }
-  EXPECT_EQ(files, 3u * 2 + 9);  // rgb and depth per view, 3 index files, 6 others
+  EXPECT_EQ(files, 6u * 2 + 9);  // rgb and depth per view, 3 index files, 6 others
   const auto provenance = nlohmann::json::parse(read_bytes(dir / "a" / "simulation.json"));
   EXPECT_EQ(provenance["seed"], 7);
-  EXPECT_EQ(provenance["views"], 3);
+  EXPECT_EQ(provenance["views"], 6);
+  EXPECT_EQ(provenance["views_per_pitch_row"], 3);  // --views: every row
   EXPECT_EQ(provenance["noise"], false);
 }
 
