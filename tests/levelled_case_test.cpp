@@ -63,7 +63,7 @@ TEST(LevelledCase, SevenScenesGravityPointsDownInTheCase) {
 TEST(LevelledCase, DataWithoutGravityIsLevelledFromItsFloor) {
   const fs::path dir = test::scratch_dir();
   const fs::path scan = dir / "scan";
-  auto r = test::run_cli("--quiet scan-sim -o " + scan.string() + " --views 16");
+  auto r = test::run_cli("--quiet scan-sim -o " + scan.string() + " --views 16 --pitch -10");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const RgbdSequence with_truth = open_rgbd_sequence(scan);
   ASSERT_TRUE(with_truth.frames.front().T_world_camera);

@@ -14,6 +14,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <vector>
 #include <string>
 
 namespace locard::cli {
@@ -23,6 +24,7 @@ struct ScanSimOptions {
   std::string scene;  // file, built-in name, or empty for the bedroom
   std::string output;
   std::optional<int> views;
+  std::vector<double> pitch;  // pitch rows, degrees (overrides the scene's)
   std::optional<std::uint64_t> seed;
   std::optional<std::uint64_t> random;  // seed of a random room instead of a scene
   std::string sensor;                   // with --random: kinect_v1 | kinect_v2 (drawn if empty)
@@ -59,7 +61,9 @@ int run(const ScanSimOptions& o, const GlobalOptions& global) {
   if (!o.random && (!o.sensor.empty() || !o.surfaces.empty()))
     throw InputError("scan-sim: --sensor and --surfaces apply to --random rooms only");
   sim::Scene scene = o.random ? sim::random_scene(*o.random, random_options(o)) : load_scene(o.scene);
-  if (o.views) {
+  if (!o.pitch.empty()) {  // the rows replaced: every one gets --views, or the first row's count
+    scene.scanner.set_rings(o.views ? *o.views : scene.scanner.views_in_ring(0), o.pitch);
+  } else if (o.views) {
     scene.scanner.views = *o.views;
     scene.scanner.ring_views.clear();
   }
@@ -118,6 +122,11 @@ void register_scan_sim(CLI::App& app, GlobalOptions& global) {
   cmd->add_option("-o,--output", options->output, "Output folder")->required();
   cmd->add_option("--views", options->views, "Views per pitch row (overrides the scene)")
       ->check(CLI::Range(1, 100000));
+  cmd->add_option("--pitch", options->pitch,
+                  "Pitch rows in degrees, one per ring (overrides the scene's; positive looks "
+                  "up), e.g. --pitch -10 for the bedroom's level ring alone")
+      ->check(CLI::Range(-90.0, 90.0))
+      ->allow_extra_args(false);
   // CLI11 would wrap "-3" into a huge unsigned value: refuse negative numbers explicitly.
   cmd->add_option("--seed", options->seed, "Random seed (overrides the scene)")
       ->check(CLI::NonNegativeNumber);

@@ -82,23 +82,23 @@ int sh(const std::string& script) {
   return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
 }
 
-// The simulated scan every test of the suite starts from (`--views 50`: 50 views in each of the
-// bedroom's two rings, the first 8 at -10 degrees as before the downward ring). ctest runs each test in its
+// The simulated scan every test of the suite starts from: the bedroom's level ring alone
+// (`--views 50 --pitch -10`; the tests align its first 8 views). ctest runs each test in its
 // own process, and simulating it took 4 of each test's ~6 s: it is made once per build of the
 // CLI (the cache is keyed by the binary's hash; scan-sim is deterministic) and copied into each
 // process's folder, which tests may change.
 fs::path cached_scan() {
   const std::string key = forensics::sha256_file(LOCARD_CLI_PATH).substr(0, 16);
-  const fs::path cache = fs::temp_directory_path() / "locard-tests" / ("bedroom-scan-2x50-" + key);
+  const fs::path cache = fs::temp_directory_path() / "locard-tests" / ("bedroom-scan-1x50-" + key);
   if (fs::is_directory(cache)) return cache;
   std::error_code ec;  // processes of the suite run at once: another may be removing it too
   for (const auto& e : fs::directory_iterator(cache.parent_path(), ec)) {  // earlier builds'
     const std::string name = e.path().filename().string();
-    if (name.rfind("bedroom-scan-2x50-", 0) == 0 && name.rfind(cache.filename().string(), 0) != 0)
+    if (name.rfind("bedroom-scan-1x50-", 0) == 0 && name.rfind(cache.filename().string(), 0) != 0)
       fs::remove_all(e.path(), ec);
   }
   const fs::path temp = cache.string() + ".tmp-" + std::to_string(::getpid());
-  const auto sim = run_cli("--quiet scan-sim -o " + q(temp) + " --views 50");
+  const auto sim = run_cli("--quiet scan-sim -o " + q(temp) + " --views 50 --pitch -10");
   EXPECT_EQ(sim.exit_code, 0) << sim.output;
   fs::rename(temp, cache, ec);  // another process may have finished first: same bytes
   fs::remove_all(temp, ec);
@@ -145,7 +145,7 @@ TEST_F(ReconstructCli, WritesTheDocumentedLayout) {
   EXPECT_EQ(c["parameters"]["max_frames"], 8);
   EXPECT_FALSE(c["software"]["version"].get<std::string>().empty());
   // index files, images, scene, simulation, intrinsics, measurements and capture.json
-  EXPECT_EQ(c["inputs"]["files"].size(), 4u + 2u * 100u + 5u);
+  EXPECT_EQ(c["inputs"]["files"].size(), 4u + 2u * 50u + 5u);
   // The 8 views see only part of the room: reference points elsewhere are reported.
   const auto t = nlohmann::json::parse(read(case_dir() / "measurements" / "table.json"));
   EXPECT_EQ(t["rows"].size(), 12u);

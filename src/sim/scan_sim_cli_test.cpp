@@ -93,6 +93,11 @@ TEST(ScanSimCli, SameSeedSameBytesAndOptionsReachTheOutput) {
   EXPECT_EQ(provenance["seed"], 7);
   EXPECT_EQ(provenance["views"], 6);
   EXPECT_EQ(provenance["views_per_pitch_row"], 3);  // --views: every row
+  // --pitch replaces the rows: the level ring alone.
+  const CommandResult one = run_cli("scan-sim bedroom -o " + quoted(dir / "c") + " --views 3 --pitch -10");
+  ASSERT_EQ(one.exit_code, 0) << one.output;
+  EXPECT_THAT(one.output, HasSubstr("3 views"));
+  EXPECT_EQ(run_cli("scan-sim bedroom -o " + quoted(dir / "d") + " --pitch -91").exit_code, 2);
   EXPECT_EQ(provenance["noise"], false);
 }
 

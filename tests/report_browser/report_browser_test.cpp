@@ -30,7 +30,7 @@ TEST(ReportBrowser, PlotAndTableArePresentInHeadlessChromium) {
   const fs::path chromium = forensics::find_chromium();
   if (chromium.empty()) GTEST_SKIP() << "no Chromium installed (chromium, chromium-browser)";
   const fs::path dir = test::scratch_dir();
-  auto r = test::run_cli("scan-sim -o '" + (dir / "scan").string() + "' --views 50");
+  auto r = test::run_cli("scan-sim -o '" + (dir / "scan").string() + "' --views 50 --pitch -10");
   ASSERT_EQ(r.exit_code, 0) << r.output;
   // 8 views: part of the room, several Table-I rows measured, the rest reported as such.
   r = test::run_cli("--quiet reconstruct '" + (dir / "scan").string() + "' -o '" +
