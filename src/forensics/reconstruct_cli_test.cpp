@@ -435,6 +435,11 @@ TEST_F(ReconstructCli, EvidenceIsRenamedAndWithdrawnAndPointsAreReadInTheCaseFra
 // up, the origin on its floor; a logged step; fewer than 3 points or a point off the model are
 // refused (exit 2) and change nothing.
 TEST_F(ReconstructCli, LevelTurnsTheCaseFrameOntoPickedFloorPoints) {
+#if defined(__SANITIZE_ADDRESS__)
+  // One more reconstruction: CI's sanitizer pass is near its budget; level_frame runs under the
+  // sanitizers in evidence_markers_test (LevelFrame.*).
+  GTEST_SKIP() << "release builds only";
+#endif
   const fs::path c = *dir_ / "level-case";
   ASSERT_EQ(run_cli(reconstruct_args(c)).exit_code, 0);
   auto r = run_cli("marker frame " + q(c) + " --origin 0,0,0 --x-point 1,0,0.1 --xy-point 0,1,0.05 "
