@@ -34,6 +34,8 @@ TEST(LevelledCase, SevenScenesGravityPointsDownInTheCase) {
   const nlohmann::json case_json = nlohmann::json::parse(std::ifstream(out / "case.json"));
   EXPECT_THAT(case_json.value("world_frame", ""), HasSubstr("levelled"));
   EXPECT_THAT(case_json.value("world_frame", ""), HasSubstr("gravity-direction.txt"));
+  EXPECT_TRUE(case_json["level"]["levelled"].get<bool>());
+  EXPECT_EQ(case_json["level"]["source"], "gravity");
 
   const RgbdSequence sequence = open_rgbd_sequence(seven_scenes());
   const auto gravity = read_gravity_direction(sequence);
@@ -74,6 +76,7 @@ TEST(LevelledCase, DataWithoutGravityIsLevelledFromItsFloor) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const nlohmann::json kept = nlohmann::json::parse(std::ifstream(dir / "kept" / "case.json"));
   EXPECT_THAT(kept.value("world_frame", ""), HasSubstr("level as given"));
+  EXPECT_EQ(kept["level"]["source"], "floor, level as given");
 
   fs::rename(scan / "groundtruth.txt", dir / "groundtruth.txt");  // the truth, kept aside
   const fs::path out = dir / "case";
@@ -82,6 +85,7 @@ TEST(LevelledCase, DataWithoutGravityIsLevelledFromItsFloor) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const nlohmann::json case_json = nlohmann::json::parse(std::ifstream(out / "case.json"));
   EXPECT_THAT(case_json.value("world_frame", ""), HasSubstr("levelled from the floor"));
+  EXPECT_EQ(case_json["level"]["source"], "floor");
   const Trajectory estimate = read_tum_trajectory(out / "alignment" / "trajectory.txt");
   ASSERT_FALSE(estimate.empty());
   ASSERT_NEAR(estimate.front().timestamp, with_truth.frames.front().timestamp, 1e-6);

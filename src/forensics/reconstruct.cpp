@@ -474,6 +474,7 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
   // Levelled: where the data records gravity in its world frame (and the model is in that
   // frame), the case turns about the origin so gravity points along -z - top views, plans,
   // walk mode and clipping assume z up.
+  std::string level_source;  // empty: not levelled
   const std::optional<GravityDirection> gravity =
       in_input_frame ? read_gravity_direction(sequence) : std::nullopt;
   if (gravity) {
@@ -482,6 +483,7 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
     Isometry3d level = Isometry3d::Identity();
     level.linear() = R_level;
     T_world_estimate = level * T_world_estimate;
+    level_source = "gravity";
     world_frame += fmt::format(", levelled: turned {:.1f} deg about the origin so the data's "
                                "gravity ({}) points along -z",
                                Eigen::AngleAxisd(R_level).angle() * 180.0 / M_PI, gravity->source);
@@ -498,6 +500,7 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
       note("not levelled: the data records no gravity and no floor was found in the views; "
            "top views and walk mode assume z up");
     } else if (in_input_frame && floor->tilt_deg <= kKeepLevelDeg) {
+      level_source = "floor, level as given";
       world_frame += fmt::format(", level as given: the floor ({} points) lies within {:.2f} deg "
                                  "of the xy plane",
                                  floor->inliers, floor->tilt_deg);
@@ -505,6 +508,7 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
       Isometry3d level = Isometry3d::Identity();
       level.linear() = floor->R_level;
       T_world_estimate = level * T_world_estimate;
+      level_source = "floor";
       world_frame += fmt::format(", levelled from the floor: turned {:.1f} deg about the origin so "
                                  "the floor plane ({} of {} sampled points, rms {:.1f} mm) is "
                                  "horizontal, z up",
@@ -610,6 +614,11 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
   std::size_t loops = 0;
   for (const LoopCandidate& c : result.loops) loops += c.accepted;
   case_json["world_frame"] = world_frame;
+  // Typed, for the report and the viewer: whether +z is up, and from what (not read from the
+  // world_frame sentence).
+  case_json["level"] = level_source.empty()
+                           ? json{{"levelled", false}}
+                           : json{{"levelled", true}, {"source", level_source}, {"up", {0.0, 0.0, 1.0}}};
   case_json["alignment"] = {
       {"frames", result.frames.size()},
       {"registered", summary.registered},

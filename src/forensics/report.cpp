@@ -427,10 +427,14 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
       !marker_file.is_null() && marker_file.contains("frame") && marker_file["frame"].contains("z_axis")
           ? json_vec3(marker_file["frame"]["z_axis"], "evidence/markers.json: frame.z_axis")
           : Vector3d::UnitZ();
+  const bool levelled = case_json.contains("level")
+                            ? case_json["level"].value("levelled", false)
+                            // cases written before the typed field: their world_frame sentence
+                            : frame_text.find("levelled") != std::string::npos ||
+                                  frame_text.find("level as given") != std::string::npos;
   if ((frame_z - Vector3d::UnitZ()).norm() > 1e-9) {  // a frame was chosen that turns z
     up = frame_z.normalized();
-  } else if (frame_text.find("levelled") != std::string::npos ||
-      frame_text.find("level as given") != std::string::npos) {
+  } else if (levelled) {
     up = Vector3d::UnitZ();
   } else {
     for (const StampedPose& p : trajectory) up += p.T_world_camera.linear() * Vector3d(0, -1, 0);
