@@ -10,6 +10,7 @@
 //   check_views      every registered view tested against the others' model (5)
 // Each stage reads what the earlier ones wrote and adds its own part; none reaches back.
 #include <locard/alignment/sequential_alignment.hpp>
+#include <locard/core/kdtree.hpp>
 #include <locard/registration/global_registration.hpp>
 #include <locard/registration/icp.hpp>
 
@@ -17,6 +18,7 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -74,6 +76,14 @@ std::vector<std::uint64_t> world_cells(const PointCloud& cloud, const Isometry3d
 // Smallest eigenvalue of a camera-frame cloud's per-point normal matrix (ViewCheckOptions'
 // "constraint"): rotation about the camera centre only, or all six degrees of freedom.
 double pose_constraint(const PointCloud& cloud, bool rotation_only);
+// The colour gradient of a camera-frame cloud (with normals) as the colour terms of the joint
+// refinement and of the view check use it (color_gradient.hpp): over the at most 30 points
+// within two voxels (Open3D: twice the correspondence distance, 30 points), `intensity` per
+// point; `standard_error` as color_gradients gives it (joint_refinement.cpp).
+std::vector<Eigen::Vector3f> surface_color_gradients(const PointCloud& cloud, const KdTree& tree,
+                                                     std::span<const float> intensity,
+                                                     double voxel_size,
+                                                     std::vector<float>* standard_error = nullptr);
 
 // Shared registration steps (frame_registration.cpp).
 // ICP of a camera-frame cloud against a target, coarse to fine: point to plane at 2v with a 4v

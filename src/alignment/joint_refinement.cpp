@@ -113,11 +113,9 @@ constexpr double kTranslationPrior = 0.1;
 // correspondences per axis (above).
 constexpr double kTripod = 10.0;
 constexpr double kNodalRidge = 1.0;
-// The colour term (above): its weight against the geometric one, Park et al.'s (and Open3D's)
-// lambda_geometric = 0.968, and its Tukey scale in intensity (0..1); the gradient is fitted over
-// the at most kGradientNeighbours points within kGradientRadiusVoxels voxels (Open3D: twice the
-// correspondence distance, 30 points).
-constexpr double kColorWeight = (1.0 - 0.968) / 0.968;
+// The colour term (above): its weight against the geometric one is kColorTermWeight
+// (color_gradient.hpp: Park et al.'s and Open3D's lambda_geometric = 0.968), its Tukey scale in
+// intensity (0..1) kColorTukey; the gradient is surface_color_gradients' (below).
 constexpr double kColorTukey = 0.2;
 constexpr double kGradientRadiusVoxels = 2.0;
 constexpr int kGradientNeighbours = 30;
@@ -234,7 +232,7 @@ std::size_t accumulate_pair(const std::vector<View>& views, const std::vector<Is
       const Eigen::Vector3d d_b = views[b].gradient[hit.index].cast<double>();
       const double r_c = views[b].intensity[hit.index] + d_b.dot(p_b - q_b) -
                          views[a].intensity[k];
-      const double w_c = w * kColorWeight * colour.weight(r_c);
+      const double w_c = w * kColorTermWeight * colour.weight(r_c);
       if (w_c > 0.0) add_residual(block_a, block_b, p, p, R_b * d_b, r_c, w_c, H, g);
     }
   }
@@ -389,6 +387,14 @@ Tripod nodal_model(const std::vector<Isometry3d>& poses) {
 
 }  // namespace
 
+std::vector<Eigen::Vector3f> surface_color_gradients(const PointCloud& cloud, const KdTree& tree,
+                                                     std::span<const float> intensity,
+                                                     double voxel_size,
+                                                     std::vector<float>* standard_error) {
+  return color_gradients(tree, cloud.normals, intensity, kGradientRadiusVoxels * voxel_size,
+                         kGradientNeighbours, standard_error);
+}
+
 void refine_jointly(AlignmentState& s) {
   AlignmentResult& result = s.result;
   JointRefinement& report = result.refinement;
@@ -411,10 +417,8 @@ void refine_jointly(AlignmentState& s) {
     v.cloud = &s.prepared[s.registered[k]].cloud;
     v.tree = KdTree(v.cloud->positions);
     if (!color || !v.cloud->has_colors()) return;
-    v.intensity.reserve(v.cloud->size());
-    for (const Rgb8& c : v.cloud->colors) v.intensity.push_back(intensity_of(c));
-    v.gradient = color_gradients(v.tree, v.cloud->normals, v.intensity,
-                                 kGradientRadiusVoxels * s.options.voxel_size, kGradientNeighbours);
+    v.intensity = intensities_of(v.cloud->colors);
+    v.gradient = surface_color_gradients(*v.cloud, v.tree, v.intensity, s.options.voxel_size);
   });
   const double gate = s.options.voxel_size;
   Tripod tripod = nodal_model(solved);

@@ -24,15 +24,20 @@ namespace {
 
 using Matrix6d = Eigen::Matrix<double, 6, 6>;
 
+// The RMS distance of a view's points from its camera: the lever that turns a rotation into
+// metres, so rotation and translation share one scale in the information matrices below.
+double rms_lever(const PointCloud& cloud) {
+  double lever2 = 0.0;
+  for (const Eigen::Vector3f& p : cloud.positions) lever2 += p.squaredNorm();
+  return std::sqrt(std::max(lever2 / static_cast<double>(cloud.size()), 1e-12));
+}
+
 // Per-point normal matrix of a view's own points, J = [p x n / lever, n] (camera frame, the
 // rotation scaled by the RMS lever arm), averaged; zero without normals.
 Matrix6d normal_information(const PointCloud& cloud) {
   Matrix6d A = Matrix6d::Zero();
   if (!cloud.has_normals() || cloud.empty()) return A;
-  double lever2 = 0.0;
-  for (const Eigen::Vector3f& p : cloud.positions) lever2 += p.squaredNorm();
-  lever2 /= static_cast<double>(cloud.size());
-  const double lever = std::sqrt(std::max(lever2, 1e-12));
+  const double lever = rms_lever(cloud);
   for (std::size_t k = 0; k < cloud.size(); ++k) {
     const Eigen::Vector3d p = cloud.positions[k].cast<double>();
     const Eigen::Vector3d n = cloud.normals[k].cast<double>();
@@ -50,22 +55,15 @@ Matrix6d normal_information(const PointCloud& cloud) {
 // kSignificantGradient standard errors above the colour's noise count: a plain wall's noise
 // must not pass for a texture that fixes the slide.
 constexpr double kSignificantGradient = 3.0;
-constexpr double kGradientRadiusVoxels = 2.0;  // as the joint refinement's
-constexpr int kGradientNeighbours = 30;
 
 Matrix6d color_information(const PointCloud& cloud, double voxel_size) {
   Matrix6d A = Matrix6d::Zero();
   if (!cloud.has_normals() || !cloud.has_colors() || cloud.empty()) return A;
   const KdTree tree(cloud.positions);
-  std::vector<float> intensity;
-  for (const Rgb8& c : cloud.colors) intensity.push_back(intensity_of(c));
   std::vector<float> error;
   const std::vector<Eigen::Vector3f> gradient =
-      color_gradients(tree, cloud.normals, intensity, kGradientRadiusVoxels * voxel_size,
-                      kGradientNeighbours, &error);
-  double lever2 = 0.0;
-  for (const Eigen::Vector3f& p : cloud.positions) lever2 += p.squaredNorm();
-  const double lever = std::sqrt(std::max(lever2 / static_cast<double>(cloud.size()), 1e-12));
+      surface_color_gradients(cloud, tree, intensities_of(cloud.colors), voxel_size, &error);
+  const double lever = rms_lever(cloud);
   for (std::size_t k = 0; k < cloud.size(); ++k) {
     if (!(gradient[k].norm() > kSignificantGradient * error[k])) continue;
     const Eigen::Vector3d p = cloud.positions[k].cast<double>();
@@ -91,6 +89,30 @@ double turn_constraint(const Matrix6d& A, const Eigen::Vector3d& axis) {
   return axis.dot(A.topLeftCorner<3, 3>() * axis);
 }
 
+
+// The constraint a view needs: over the rotation on a tripod turn, all six directions on video.
+bool rotation_only(const AlignmentOptions& o) { return o.mode == AlignmentMode::Cumulative; }
+double min_constraint(const AlignmentOptions& o) {
+  return rotation_only(o) ? o.view_check.min_constraint : o.view_check.min_constraint_6dof;
+}
+
+// What a view's own points say of its pose, computed once per check (the rounds reuse it): the
+// geometric information and, where colour is registered to depth and the geometry leaves a
+// direction free, the colour term's (it costs a gradient fit over the view).
+struct ViewInformation {
+  Matrix6d geometry = Matrix6d::Zero();
+  std::optional<Matrix6d> color;
+};
+
+ViewInformation view_information(const AlignmentState& s, std::size_t i) {
+  const PointCloud& cloud = s.prepared[i].cloud;
+  ViewInformation v;
+  v.geometry = normal_information(cloud);
+  if (s.options.refinement_color &&
+      weakest_direction(v.geometry, rotation_only(s.options)) < min_constraint(s.options))
+    v.color = color_information(cloud, s.options.voxel_size);
+  return v;
+}
 
 // One world voxel of the multi-view model: sums for the centroid and normal, and which views
 // saw it (a 64-bit Bloom mask of view ids: "contains" may say yes for another view with the
@@ -228,7 +250,8 @@ struct TripodConsistency {
 
 constexpr std::size_t kPlayViews = 5;
 
-TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<std::size_t>& views) {
+TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<std::size_t>& views,
+                                     const std::vector<ViewInformation>& information) {
   TripodConsistency out;
   out.off_axis_deg.assign(s.n, std::numeric_limits<double>::quiet_NaN());
   out.residual_m = out.off_axis_deg;
@@ -248,7 +271,7 @@ TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<
   double sum2 = 0.0;
   std::size_t fixed = 0;
   for (std::size_t k = 0; k < views.size(); ++k) {
-    if (pose_constraint(s.prepared[views[k]].cloud, false) < s.options.view_check.min_constraint_6dof ||
+    if (weakest_direction(information[k].geometry, false) < s.options.view_check.min_constraint_6dof ||
         nodal.residual_m[k] > s.options.view_check.max_tripod_residual_m)
       continue;
     sum2 += nodal.residual_m[k] * nodal.residual_m[k];
@@ -298,7 +321,7 @@ CheckBox check_box(const AlignmentState& s, std::size_t i) {
 ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_t i,
                      const Eigen::Vector3d& tripod_centre, double off_axis_deg,
                      double tripod_residual_m, const std::optional<Eigen::Vector3d>& pan_axis,
-                     double tripod_play_m, const std::optional<Matrix6d>& color) {
+                     double tripod_play_m, const ViewInformation& own, const CheckBox& box) {
   const AlignmentOptions& o = s.options;
   const ViewCheckOptions& limits = o.view_check;
   const FrameAlignment& f = s.result.frames[i];
@@ -306,15 +329,14 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   const Isometry3d& T = *f.T_world_camera_final;
   ViewCheck c;
   c.checked = true;
-  const Matrix6d information = normal_information(cloud);
-  const bool rotation_only = o.mode == AlignmentMode::Cumulative;
-  const double min_constraint = rotation_only ? limits.min_constraint : limits.min_constraint_6dof;
-  c.constraint = weakest_direction(information, rotation_only);
+  const Matrix6d& information = own.geometry;
+  const double needed = min_constraint(o);
+  c.constraint = weakest_direction(information, rotation_only(o));
   // A view whose geometry leaves a direction free that its colour's texture fixes: checked by
   // coloured ICP, judged by both terms' constraint (color_information).
-  if (color && c.constraint < min_constraint) {
-    const double both = weakest_direction(information + *color, rotation_only);
-    if (both >= min_constraint) {
+  if (own.color && c.constraint < needed) {
+    const double both = weakest_direction(information + *own.color, rotation_only(o));
+    if (both >= needed) {
       c.constraint = both;
       c.fixed_by_color = true;
     }
@@ -331,13 +353,12 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   const double pan = pan_axis ? turn_constraint(information, T.linear().transpose() * *pan_axis)
                              : 0.0;
   const bool held_by_tripod =
-      !c.fixed_by_color && o.mode == AlignmentMode::Cumulative && play_small &&
+      !c.fixed_by_color && rotation_only(o) && play_small &&
       std::isfinite(off_axis_deg) &&
       std::isfinite(tripod_residual_m) && c.constraint < limits.min_constraint &&
       pan >= limits.min_constraint;
   if (held_by_tripod) c.constraint = pan;
 
-  const CheckBox box = check_box(s, i);
   const OthersModel others = others_model(model, i, box.lo, box.hi);
 
   std::vector<std::string> reasons;
@@ -408,11 +429,11 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
     reasons.push_back(fmt::format("its camera stands {:.0f} mm from where the tripod's head puts "
                                   "it (allowed {:.0f} mm)",
                                   1000 * c.tripod_residual_m, 1000 * limits.max_tripod_residual_m));
-  if (c.constraint < min_constraint)
+  if (c.constraint < needed)
     reasons.push_back(fmt::format("geometry does not fix its pose{} (constraint {:.4f}, need >= "
                                   "{:.3f}: a bare wall or plane)",
-                                  color ? ", nor does its colour's texture" : "", c.constraint,
-                                  min_constraint));
+                                  own.color ? ", nor does its colour's texture" : "", c.constraint,
+                                  needed));
   c.verified = reasons.empty();
   for (const std::string& reason : reasons) c.reason += (c.reason.empty() ? "" : "; ") + reason;
   // Confidence: the smallest margin to any limit, 1 far inside all of them, 0 at or past one.
@@ -430,7 +451,7 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
                                       below(c.correction_deg, limits.max_correction_deg),
                                       below(c.free_space, limits.max_free_space),
                                       above(c.overlap, limits.min_overlap, 1.0),
-                                      above(c.constraint, min_constraint, 5.0 * min_constraint)});
+                                      above(c.constraint, needed, 5.0 * needed)});
   c.confidence = c.verified ? std::clamp(confidence, 0.0, 1.0) : 0.0;
   return c;
 }
@@ -483,22 +504,13 @@ void check_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
   std::vector<Isometry3d> final_poses;
   for (std::size_t i : views) final_poses.push_back(*s.result.frames[i].T_world_camera_final);
   const Eigen::Vector3d tripod_centre = median_centre(final_poses);
-  const TripodConsistency tripod = tripod_consistency(s, views);
+  std::vector<ViewInformation> information(views.size());
   std::vector<CheckBox> boxes(views.size());
-  tbb::parallel_for(std::size_t{0}, views.size(), [&](std::size_t k) { boxes[k] = check_box(s, views[k]); });
-  // The colour term of the views whose geometry alone leaves a direction free (it costs a
-  // gradient fit over the view), where colour is registered to depth.
-  std::vector<std::optional<Matrix6d>> color(views.size());
-  if (s.options.refinement_color) {
-    const bool rotation_only = s.options.mode == AlignmentMode::Cumulative;
-    const double min_constraint = rotation_only ? s.options.view_check.min_constraint
-                                                : s.options.view_check.min_constraint_6dof;
-    tbb::parallel_for(std::size_t{0}, views.size(), [&](std::size_t k) {
-      const PointCloud& cloud = s.prepared[views[k]].cloud;
-      if (pose_constraint(cloud, rotation_only) < min_constraint)
-        color[k] = color_information(cloud, s.options.voxel_size);
-    });
-  }
+  tbb::parallel_for(std::size_t{0}, views.size(), [&](std::size_t k) {
+    information[k] = view_information(s, views[k]);
+    boxes[k] = check_box(s, views[k]);
+  });
+  const TripodConsistency tripod = tripod_consistency(s, views, information);
   std::vector<char> due(views.size(), 1);
   for (int round = 0; round < std::max(1, s.options.view_check.rounds); ++round) {
     const ViewModel model = build_model(s, excluded);
@@ -507,7 +519,7 @@ void check_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
       s.result.frames[views[k]].check = check_view(s, model, views[k], tripod_centre,
                                                    tripod.off_axis_deg[views[k]],
                                                    tripod.residual_m[views[k]], tripod.axis,
-                                                   tripod.play_m, color[k]);
+                                                   tripod.play_m, information[k], boxes[k]);
     });
     std::vector<std::size_t> changed;
     for (std::size_t k = 0; k < views.size(); ++k) {

@@ -2,6 +2,8 @@
 
 #include <locard/forensics/floor_level.hpp>
 
+#include "core/convex_polygon.hpp"
+
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 #include <tbb/parallel_for.h>
@@ -36,40 +38,6 @@ Look look(const DepthImage& depth, const CameraIntrinsics& K, double depth_scale
   return d < z ? Look::InFront : Look::Through;
 }
 
-// Andrew's monotone chain: the convex hull of `points`, counter-clockwise.
-std::vector<Eigen::Vector2d> convex_hull(std::vector<Eigen::Vector2d> points) {
-  std::sort(points.begin(), points.end(), [](const auto& a, const auto& b) {
-    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
-  });
-  points.erase(std::unique(points.begin(), points.end()), points.end());
-  if (points.size() < 3) return points;
-  const auto cross = [](const Eigen::Vector2d& o, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-    return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
-  };
-  std::vector<Eigen::Vector2d> hull(2 * points.size());
-  std::size_t k = 0;
-  for (const auto& p : points) {
-    while (k >= 2 && cross(hull[k - 2], hull[k - 1], p) <= 0) --k;
-    hull[k++] = p;
-  }
-  for (std::size_t i = points.size() - 1, lower = k + 1; i-- > 0;) {
-    while (k >= lower && cross(hull[k - 2], hull[k - 1], points[i]) <= 0) --k;
-    hull[k++] = points[i];
-  }
-  hull.resize(k - 1);
-  return hull;
-}
-
-bool inside(const std::vector<Eigen::Vector2d>& hull, const Eigen::Vector2d& p) {
-  if (hull.size() < 3) return false;
-  for (std::size_t i = 0; i < hull.size(); ++i) {
-    const Eigen::Vector2d& a = hull[i];
-    const Eigen::Vector2d& b = hull[(i + 1) % hull.size()];
-    if ((b.x() - a.x()) * (p.y() - a.y()) - (b.y() - a.y()) * (p.x() - a.x()) < 0) return false;
-  }
-  return true;
-}
-
 std::vector<std::size_t> chosen_views(const std::vector<std::optional<Isometry3d>>& poses,
                                       std::size_t max_views) {
   std::vector<std::size_t> placed;
@@ -81,35 +49,62 @@ std::vector<std::size_t> chosen_views(const std::vector<std::optional<Isometry3d
   return chosen;
 }
 
-// The room's footprint from above: the hull of every view's measured points (every 16th pixel,
-// the floor and what stands on it up to the cameras' height and a metre over them).
-std::vector<Eigen::Vector2d> footprint(const std::vector<DepthImage>& depths,
-                                       const std::vector<Isometry3d>& T, const CameraIntrinsics& K,
-                                       double depth_scale, const FloorCoverageOptions& o) {
-  std::vector<Eigen::Vector2d> xy;
-  for (std::size_t k = 0; k < depths.size(); ++k)
-    for (int v = 0; v < depths[k].height(); v += 16)
-      for (int u = 0; u < depths[k].width(); u += 16) {
-        const std::uint16_t raw = depths[k].at(u, v);
+// The placed views' depth images, read once, and their poses.
+struct PlacedViews {
+  std::vector<std::size_t> index;  // frames of the sequence
+  std::vector<DepthImage> depth;
+  std::vector<Isometry3d> T;
+};
+
+PlacedViews load_views(const RgbdSequence& sequence,
+                       const std::vector<std::optional<Isometry3d>>& poses, std::size_t max_views) {
+  PlacedViews v;
+  v.index = chosen_views(poses, max_views);
+  v.depth.resize(v.index.size());
+  for (std::size_t i : v.index) v.T.push_back(*poses[i]);
+  tbb::parallel_for(std::size_t{0}, v.index.size(),
+                    [&](std::size_t k) { v.depth[k] = sequence.load_depth(v.index[k]); });
+  return v;
+}
+
+// Every view's measured points in range (every 16th pixel): what the room's footprint is found
+// from.
+std::vector<Eigen::Vector3d> sample_points(const PlacedViews& views, const CameraIntrinsics& K,
+                                           double depth_scale, const FloorCoverageOptions& o) {
+  std::vector<Eigen::Vector3d> points;
+  for (std::size_t k = 0; k < views.depth.size(); ++k) {
+    const DepthImage& depth = views.depth[k];
+    for (int v = 0; v < depth.height(); v += 16)
+      for (int u = 0; u < depth.width(); u += 16) {
+        const std::uint16_t raw = depth.at(u, v);
         if (raw == 0) continue;
         const double z = raw / depth_scale;
         if (z < o.min_depth_m || z > o.max_depth_m) continue;
-        const Eigen::Vector3d p = T[k] * Eigen::Vector3d((u - K.cx) * z / K.fx, (v - K.cy) * z / K.fy, z);
-        xy.emplace_back(p.x(), p.y());
+        points.push_back(views.T[k] * Eigen::Vector3d((u - K.cx) * z / K.fx, (v - K.cy) * z / K.fy, z));
       }
-  return convex_hull(std::move(xy));
+  }
+  return points;
+}
+
+// The room's footprint from above: the hull of the sampled points (the floor and what stands on
+// it, the walls).
+detail::ConvexPolygon footprint(const std::vector<Eigen::Vector3d>& points) {
+  std::vector<Eigen::Vector2d> xy;
+  xy.reserve(points.size());
+  for (const Eigen::Vector3d& p : points) xy.emplace_back(p.x(), p.y());
+  return detail::convex_hull(std::move(xy));
 }
 
 void classify(FloorCoverage& c, const std::vector<DepthImage>& depths,
               const std::vector<Isometry3d>& T, const CameraIntrinsics& K, double depth_scale,
-              const std::vector<Eigen::Vector2d>& hull, const FloorCoverageOptions& o) {
+              const detail::ConvexPolygon& hull, const FloorCoverageOptions& o) {
   std::vector<Isometry3d> T_camera_world;
   for (const Isometry3d& t : T) T_camera_world.push_back(t.inverse());
   tbb::parallel_for(0, c.ny, [&](int y) {
     for (int x = 0; x < c.nx; ++x) {
       const Eigen::Vector2d xy = c.cell_centre(x, y);
       FloorCell& cell = c.cells[static_cast<std::size_t>(y) * c.nx + x];
-      if (!inside(hull, xy)) {
+      if (!detail::convex_contains(hull, xy)) {
         cell = FloorCell::NotFloor;
         continue;
       }
@@ -142,19 +137,23 @@ void add_areas(FloorCoverage& c) {
 // width, outwards, while each ring is at least disc_unseen_share unseen.
 double unseen_disc_radius(const FloorCoverage& c, const FloorCoverageOptions& o) {
   const double step = c.cell_m;
+  // Each floor cell counted once into its ring (ring k: distances [k, k + 1) steps), then the
+  // rings read outwards, out to 10 m.
+  const std::size_t rings = static_cast<std::size_t>(10.0 / step);
+  std::vector<std::size_t> floor(rings, 0), unseen(rings, 0);
+  for (int y = 0; y < c.ny; ++y)
+    for (int x = 0; x < c.nx; ++x) {
+      if (c.at(x, y) == FloorCell::NotFloor) continue;
+      const auto k = static_cast<std::size_t>((c.cell_centre(x, y) - c.tripod_centre).norm() / step);
+      if (k >= rings) continue;
+      ++floor[k];
+      unseen[k] += c.at(x, y) == FloorCell::Unseen;
+    }
   double radius = 0.0;
-  for (double r = step; r < 10.0; r += step) {
-    std::size_t floor = 0, unseen = 0;
-    for (int y = 0; y < c.ny; ++y)
-      for (int x = 0; x < c.nx; ++x) {
-        const double d = (c.cell_centre(x, y) - c.tripod_centre).norm();
-        if (d < r - step || d >= r || c.at(x, y) == FloorCell::NotFloor) continue;
-        ++floor;
-        unseen += c.at(x, y) == FloorCell::Unseen;
-      }
-    if (floor == 0) continue;
-    if (static_cast<double>(unseen) < o.disc_unseen_share * static_cast<double>(floor)) break;
-    radius = r;
+  for (std::size_t k = 0; k < rings; ++k) {
+    if (floor[k] == 0) continue;
+    if (static_cast<double>(unseen[k]) < o.disc_unseen_share * static_cast<double>(floor[k])) break;
+    radius = static_cast<double>(k + 1) * step;
   }
   return radius;
 }
@@ -165,11 +164,14 @@ std::vector<UnseenPatch> unseen_patches(const FloorCoverage& c, const std::vecto
   std::vector<int> label(c.cells.size(), -1);
   std::vector<UnseenPatch> patches;
   const double a = c.cell_m * c.cell_m;
+  const auto in_disc = [&](int x, int y) {
+    return c.tripod && (c.cell_centre(x, y) - c.tripod_centre).norm() < c.unseen_radius_m;
+  };
   for (int y0 = 0; y0 < c.ny; ++y0)
     for (int x0 = 0; x0 < c.nx; ++x0) {
       const std::size_t start = static_cast<std::size_t>(y0) * c.nx + x0;
       if (c.cells[start] != FloorCell::Unseen || label[start] >= 0) continue;
-      if (c.tripod && (c.cell_centre(x0, y0) - c.tripod_centre).norm() < c.unseen_radius_m) continue;
+      if (in_disc(x0, y0)) continue;
       UnseenPatch patch;
       std::vector<std::size_t> stack{start};
       label[start] = static_cast<int>(patches.size());
@@ -186,7 +188,7 @@ std::vector<UnseenPatch> unseen_patches(const FloorCoverage& c, const std::vecto
           if (u < 0 || v < 0 || u >= c.nx || v >= c.ny) continue;
           const std::size_t j = static_cast<std::size_t>(v) * c.nx + u;
           if (c.cells[j] != FloorCell::Unseen || label[j] >= 0) continue;
-          if (c.tripod && (c.cell_centre(u, v) - c.tripod_centre).norm() < c.unseen_radius_m) continue;
+          if (in_disc(u, v)) continue;
           label[j] = label[start];
           stack.push_back(j);
         }
@@ -235,30 +237,17 @@ void write_advice(FloorCoverage& c, const CameraIntrinsics& K, double max_depth_
   if (c.advice.empty()) c.advice.push_back("the floor was observed throughout");
 }
 
-}  // namespace
-
-std::optional<double> floor_height(const std::vector<Eigen::Vector3d>& points) {
-  const std::optional<FloorLevel> floor = find_floor_level(points, Eigen::Vector3d::UnitZ());
-  if (!floor || floor->tilt_deg > kMaxFloorTiltDeg) return std::nullopt;
-  return floor->height_m / floor->normal.z();
-}
-
-FloorCoverage compute_floor_coverage(const RgbdSequence& sequence,
-                                     const std::vector<std::optional<Isometry3d>>& poses,
-                                     double floor_z_m, const FloorCoverageOptions& o) {
+FloorCoverage cover(const RgbdSequence& sequence, const PlacedViews& views, double floor_z_m,
+                    const FloorCoverageOptions& o) {
   FloorCoverage c;
   c.floor_z_m = floor_z_m;
   c.cell_m = o.cell_m;
-  const std::vector<std::size_t> views = chosen_views(poses, o.max_views);
-  c.views_used = views.size();
-  if (views.empty()) return c;
-  std::vector<DepthImage> depths(views.size());
-  std::vector<Isometry3d> T;
-  for (std::size_t i : views) T.push_back(*poses[i]);
-  tbb::parallel_for(std::size_t{0}, views.size(),
-                    [&](std::size_t k) { depths[k] = sequence.load_depth(views[k]); });
+  c.views_used = views.index.size();
+  if (views.index.empty()) return c;
+  const std::vector<DepthImage>& depths = views.depth;
+  const std::vector<Isometry3d>& T = views.T;
   const CameraIntrinsics& K = sequence.intrinsics;
-  const std::vector<Eigen::Vector2d> hull = footprint(depths, T, K, sequence.depth_scale, o);
+  const detail::ConvexPolygon hull = footprint(sample_points(views, K, sequence.depth_scale, o));
   if (hull.size() < 3) return c;
   Eigen::Vector2d lo = hull.front(), hi = hull.front();
   for (const Eigen::Vector2d& p : hull) {
@@ -284,6 +273,20 @@ FloorCoverage compute_floor_coverage(const RgbdSequence& sequence,
   c.patches = unseen_patches(c, T, o);
   write_advice(c, K, o.max_depth_m, o);
   return c;
+}
+
+}  // namespace
+
+std::optional<double> floor_height(const std::vector<Eigen::Vector3d>& points) {
+  const std::optional<FloorLevel> floor = find_floor_level(points, Eigen::Vector3d::UnitZ());
+  if (!floor || floor->tilt_deg > kMaxFloorTiltDeg) return std::nullopt;
+  return floor->height_m / floor->normal.z();
+}
+
+FloorCoverage compute_floor_coverage(const RgbdSequence& sequence,
+                                     const std::vector<std::optional<Isometry3d>>& poses,
+                                     double floor_z_m, const FloorCoverageOptions& o) {
+  return cover(sequence, load_views(sequence, poses, o.max_views), floor_z_m, o);
 }
 
 std::string floor_coverage_json(const FloorCoverage& c) {

@@ -178,6 +178,17 @@ TopView render_top_view(const TriangleMesh& mesh, const sim::Raycaster& rc, cons
   return v;
 }
 
+// The opening of a plan drawn over the top view: an SVG of its size with the rendered top view
+// (`image_uri`, encoded once per report) faded to `opacity` under what is drawn on it.
+std::string plan_svg_begin(const std::string& id, const TopView& top, const std::string& image_uri,
+                           double opacity) {
+  return fmt::format(
+      "<svg id=\"{3}\" xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" height=\"{1}\" "
+      "viewBox=\"0 0 {0} {1}\"><image width=\"{0}\" height=\"{1}\" href=\"{2}\" "
+      "opacity=\"{4}\"/>",
+      top.width, top.height, image_uri, id, opacity);
+}
+
 // What every plan drawn over the top view carries: a scale bar (a round length near a quarter
 // of the width) and the case's axes, +y up the page as north on a map. The case frame is
 // levelled (z up), so the drawing is a true plan.
@@ -207,7 +218,7 @@ std::string map_furniture_svg(const TopView& top) {
 
 // The floor the scan observed, over the top view (coverage/floor_coverage.json): hidden cells
 // amber, unseen red, the tripod's centre and its unseen disc outlined.
-std::string coverage_section(const fs::path& root, const TopView& top) {
+std::string coverage_section(const fs::path& root, const TopView& top, const std::string& top_uri) {
   std::string h = "<h2 id=\"coverage\">Coverage: the floor the scan observed</h2>\n";
   const json c = read_json_or_null(root / "coverage" / "floor_coverage.json");
   if (c.is_null()) {
@@ -215,11 +226,7 @@ std::string coverage_section(const fs::path& root, const TopView& top) {
          "(not levelled, or no floor in view).</p>\n";
     return h;
   }
-  std::string svg = fmt::format(
-      "<svg id=\"coverage-plot\" xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" "
-      "height=\"{1}\" viewBox=\"0 0 {0} {1}\"><image width=\"{0}\" height=\"{1}\" href=\"{2}\" "
-      "opacity=\"0.6\"/>",
-      top.width, top.height, png_data_uri(top.image));
+  std::string svg = plan_svg_begin("coverage-plot", top, top_uri, 0.6);
   const double cell = c.value("cell_m", 0.05), z = c.value("floor_z_m", 0.0);
   const double ox = c["origin"][0].get<double>(), oy = c["origin"][1].get<double>();
   const auto& rows = c["rows"];
@@ -256,11 +263,10 @@ std::string coverage_section(const fs::path& root, const TopView& top) {
   svg += map_furniture_svg(top) + "</svg>";
   const json& area = c["area_m2"];
   h += "<figure>" + svg +
-       fmt::format("<figcaption>Floor at z = {} m in {:.0f} mm cells, from {} views: red unseen "
+       fmt::format("<figcaption>Floor at z = {:.3f} m in {:.0f} mm cells, from {} views: red unseen "
                    "(in no view's field and range), amber hidden under or behind objects, the "
                    "rest seen; black: the tripod's centre and its unseen disc</figcaption>",
-                   fmt::format("{:.3f}", z),
-                   1000 * cell, c.value("views_used", 0)) +
+                   z, 1000 * cell, c.value("views_used", 0)) +
        "</figure>\n";
   h += fmt::format("<table id=\"coverage-table\"><tr><th>floor seen</th><td class=n>{:.2f} m&sup2; "
                    "({:.0f} %)</td></tr><tr><th>hidden</th><td class=n>{:.2f} m&sup2;</td></tr>"
@@ -284,14 +290,14 @@ std::optional<PlanDimension> plan_dimension(const json& m, const std::string& na
   if (!m.contains("a") || !m.contains("b") || !m["a"].contains("snapped") ||
       !m["b"].contains("snapped"))
     return std::nullopt;
-  const auto vec = [](const json& v) { return Vector3d(v[0].get<double>(), v[1].get<double>(), v[2].get<double>()); };
-  return PlanDimension{name, value, vec(m["a"]["snapped"]), vec(m["b"]["snapped"])};
+  return PlanDimension{name, value, json_vec3(m["a"]["snapped"], "report: " + name),
+                       json_vec3(m["b"]["snapped"], "report: " + name)};
 }
 
 // The measurements drawn on the plan: Table I's measured rows and the other point-to-point
 // measurements (not withdrawn), each a numbered dimension line with ticks at its ends; a
 // measurement that is nearly vertical (under 8 px long on the plan) is listed, not drawn.
-std::string floor_plan_section(const fs::path& root, const TopView& top) {
+std::string floor_plan_section(const fs::path& root, const TopView& top, const std::string& top_uri) {
   std::vector<PlanDimension> dims;
   if (const json t = read_json_or_null(root / "measurements" / "table.json"); !t.is_null())
     for (const json& r : t["rows"]) {
@@ -316,11 +322,7 @@ std::string floor_plan_section(const fs::path& root, const TopView& top) {
     h += "<p class=\"note\">No measurements to draw yet (<code>locard measure</code>).</p>\n";
     return h;
   }
-  std::string svg = fmt::format(
-      "<svg id=\"floor-plan-plot\" xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" "
-      "height=\"{1}\" viewBox=\"0 0 {0} {1}\"><image width=\"{0}\" height=\"{1}\" href=\"{2}\" "
-      "opacity=\"0.45\"/>",
-      top.width, top.height, png_data_uri(top.image));
+  std::string svg = plan_svg_begin("floor-plan-plot", top, top_uri, 0.45);
   std::string legend = "<table id=\"floor-plan-legend\"><tr><th>#</th><th>measurement</th>"
                        "<th>model</th><th>on the plan</th></tr>";
   for (std::size_t k = 0; k < dims.size(); ++k) {
@@ -422,10 +424,10 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
   // roughly level).
   Vector3d up = Vector3d::Zero();
   const std::string frame_text = case_json.value("world_frame", "");
-  const json marker_file = read_json_or_null(root / "evidence" / "markers.json");
+  const json markers = read_json_or_null(root / "evidence" / "markers.json");
   const Vector3d frame_z =
-      !marker_file.is_null() && marker_file.contains("frame") && marker_file["frame"].contains("z_axis")
-          ? json_vec3(marker_file["frame"]["z_axis"], "evidence/markers.json: frame.z_axis")
+      !markers.is_null() && markers.contains("frame") && markers["frame"].contains("z_axis")
+          ? json_vec3(markers["frame"]["z_axis"], "evidence/markers.json: frame.z_axis")
           : Vector3d::UnitZ();
   const bool levelled = case_json.contains("level")
                             ? case_json["level"].value("levelled", false)
@@ -502,7 +504,8 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
   // Rendered views
   h += "<h2 id=\"views\">Rendered views of the model</h2>\n<div class=\"views\">";
   const TopView top = render_top_view(mesh, rc, up, o.render_width, o.render_width * 3 / 4);
-  h += "<figure><img alt=\"top view\" src=\"" + png_data_uri(top.image) +
+  const std::string top_uri = png_data_uri(top.image);  // drawn on by every plan below
+  h += "<figure><img alt=\"top view\" src=\"" + top_uri +
        "\"><figcaption>Top view (orthographic, cut below the ceiling)</figcaption></figure>";
   if (!trajectory.empty()) {
     Vector3d centre = Vector3d::Zero();
@@ -540,15 +543,10 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
   }
 
   // Trajectory top view: camera path, markers and bullet lines over the top view.
-  const json markers = read_json_or_null(root / "evidence" / "markers.json");
   const json analyses = read_json_or_null(root / "trajectories" / "analyses.json");
   {
     h += "<h2 id=\"trajectory\">Camera trajectory, evidence and bullet lines (top view)</h2>\n";
-    std::string svg = fmt::format(
-        "<svg id=\"trajectory-plot\" xmlns=\"http://www.w3.org/2000/svg\" width=\"{0}\" "
-        "height=\"{1}\" viewBox=\"0 0 {0} {1}\"><image width=\"{0}\" height=\"{1}\" href=\"{2}\" "
-        "opacity=\"0.55\"/>",
-        top.width, top.height, png_data_uri(top.image));
+    std::string svg = plan_svg_begin("trajectory-plot", top, top_uri, 0.55);
     std::string path;
     for (const StampedPose& p : trajectory) {
       const auto px = top.to_pixel(p.T_world_camera.translation());
@@ -590,7 +588,7 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
          "red dashed: bullet trajectories to the surfaces they meet</figcaption></figure>\n";
   }
 
-  h += coverage_section(root, top);
+  h += coverage_section(root, top, top_uri);
 
   // Table I
   h += "<h2 id=\"measurements\">Measurements against reference (Table I)</h2>\n";
@@ -640,7 +638,7 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
     h += "</table>\n";
   }
 
-  h += floor_plan_section(root, top);
+  h += floor_plan_section(root, top, top_uri);
 
   // Evidence
   h += "<h2 id=\"evidence\">Evidence markers</h2>\n";

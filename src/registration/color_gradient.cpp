@@ -14,6 +14,13 @@ float intensity_of(const Rgb8& c) {
          (3.f * 255.f);
 }
 
+std::vector<float> intensities_of(std::span<const Rgb8> colors) {
+  std::vector<float> out;
+  out.reserve(colors.size());
+  for (const Rgb8& c : colors) out.push_back(intensity_of(c));
+  return out;
+}
+
 std::vector<Eigen::Vector3f> color_gradients(const KdTree& tree,
                                              std::span<const Eigen::Vector3f> normals,
                                              std::span<const float> intensity, double radius,

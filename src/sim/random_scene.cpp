@@ -9,6 +9,8 @@
 #include <locard/sim/measurements.hpp>
 #include <locard/sim/scene_mesh.hpp>
 
+#include "core/convex_polygon.hpp"
+
 #include <fmt/format.h>
 
 #include <Eigen/Geometry>
@@ -62,32 +64,9 @@ constexpr int kPlacementTries = 40;
 
 // --- 2-D footprints: convex hulls of an object's vertices seen from above ---------------------
 
-using Point2 = Eigen::Vector2d;
-using Polygon = std::vector<Point2>;  // convex, counter-clockwise
-
-double cross(const Point2& o, const Point2& a, const Point2& b) {
-  return (a.x() - o.x()) * (b.y() - o.y()) - (a.y() - o.y()) * (b.x() - o.x());
-}
-
-// Andrew's monotone chain.
-Polygon convex_hull(std::vector<Point2> points) {
-  std::sort(points.begin(), points.end(), [](const Point2& a, const Point2& b) {
-    return a.x() < b.x() || (a.x() == b.x() && a.y() < b.y());
-  });
-  if (points.size() < 3) return points;
-  Polygon hull(2 * points.size());
-  std::size_t k = 0;
-  for (const Point2& p : points) {
-    while (k >= 2 && cross(hull[k - 2], hull[k - 1], p) <= 0) --k;
-    hull[k++] = p;
-  }
-  for (std::size_t i = points.size() - 1, t = k + 1; i-- > 0;) {
-    while (k >= t && cross(hull[k - 2], hull[k - 1], points[i]) <= 0) --k;
-    hull[k++] = points[i];
-  }
-  hull.resize(k - 1);
-  return hull;
-}
+using locard::detail::convex_hull;
+using Point2 = locard::detail::Point2;
+using Polygon = locard::detail::ConvexPolygon;
 
 Polygon footprint(const SceneObject& o) {
   const TriangleMesh mesh = object_mesh(o);
@@ -102,14 +81,8 @@ double segment_distance(const Point2& p, const Point2& a, const Point2& b) {
   return (p - (a + t * ab)).norm();
 }
 
-bool contains(const Polygon& poly, const Point2& p) {
-  for (std::size_t i = 0; i < poly.size(); ++i)
-    if (cross(poly[i], poly[(i + 1) % poly.size()], p) < 0) return false;
-  return true;
-}
-
 double point_distance(const Polygon& poly, const Point2& p) {
-  if (contains(poly, p)) return 0.0;
+  if (locard::detail::convex_contains(poly, p)) return 0.0;
   double best = std::numeric_limits<double>::infinity();
   for (std::size_t i = 0; i < poly.size(); ++i)
     best = std::min(best, segment_distance(p, poly[i], poly[(i + 1) % poly.size()]));

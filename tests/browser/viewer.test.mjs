@@ -100,22 +100,36 @@ const shot = async (page, name) => {
   log('screenshot', file);
 };
 
-// Colour statistics of the WebGL canvas, from a screenshot of it decoded in the page: the
-// share of pixels whose channels differ by more than 40 (coloured, not grey), of red/brown
-// pixels (red the largest channel by 30 or more) and the number of distinct 4-bit colours.
-async function canvasColour(page) {
+// A screenshot of the WebGL canvas (base64 PNG), taken after two frames have been drawn.
+async function canvasPng(page) {
   const box = await page.locator('#viewport canvas').boundingBox();
   await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
-  const png = await page.screenshot({ clip: box, timeout: 120000 });
-  return page.evaluate(async (b64) => {
-    const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
-    const bitmap = await createImageBitmap(new Blob([bytes], { type: 'image/png' }));
-    const c = document.createElement('canvas');
-    c.width = bitmap.width;
-    c.height = bitmap.height;
-    const g = c.getContext('2d');
-    g.drawImage(bitmap, 0, 0);
-    const d = g.getImageData(0, 0, c.width, c.height).data;
+  return (await page.screenshot({ clip: box, timeout: 120000 })).toString('base64');
+}
+
+// The RGBA pixels of such screenshots, decoded in the page (the browser has the PNG decoder):
+// `measure` runs there on the decoded pixel arrays, one per screenshot, and its result returns.
+async function withPixels(page, pngs, measure) {
+  return page.evaluate(async ([images, source]) => {
+    const decode = async (b64) => {
+      const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
+      const bitmap = await createImageBitmap(new Blob([bytes], { type: 'image/png' }));
+      const c = document.createElement('canvas');
+      c.width = bitmap.width;
+      c.height = bitmap.height;
+      const g = c.getContext('2d');
+      g.drawImage(bitmap, 0, 0);
+      return g.getImageData(0, 0, c.width, c.height).data;
+    };
+    return new Function(`return (${source})`)()(...(await Promise.all(images.map(decode))));
+  }, [pngs, measure.toString()]);
+}
+
+// Colour statistics of the WebGL canvas: the share of pixels whose channels differ by more than
+// 40 (coloured, not grey), of red/brown pixels (red the largest channel by 30 or more) and the
+// number of distinct 4-bit colours.
+async function canvasColour(page) {
+  return withPixels(page, [await canvasPng(page)], (d) => {
     let n = 0, coloured = 0, reddish = 0;
     const distinct = new Set();
     for (let i = 0; i < d.length; i += 4) {
@@ -126,34 +140,18 @@ async function canvasColour(page) {
       distinct.add(((r >> 4) << 8) | ((gr >> 4) << 4) | (b >> 4));
     }
     return { coloured: coloured / n, reddish: reddish / n, distinct: distinct.size, pixels: n };
-  }, png.toString('base64'));
+  });
 }
 
-// The share of canvas pixels that differ (by more than 30 in a channel) between two
-// screenshots of the canvas taken by canvasPng.
-async function canvasPng(page) {
-  const box = await page.locator('#viewport canvas').boundingBox();
-  await page.evaluate(() => new Promise((r) => requestAnimationFrame(() => requestAnimationFrame(r))));
-  return (await page.screenshot({ clip: box, timeout: 120000 })).toString('base64');
-}
+// The share of canvas pixels that differ (by more than 30 in a channel) between two screenshots
+// taken by canvasPng.
 async function changedShare(page, a, b) {
-  return page.evaluate(async ([x, y]) => {
-    const pixels = async (b64) => {
-      const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
-      const bitmap = await createImageBitmap(new Blob([bytes], { type: 'image/png' }));
-      const c = document.createElement('canvas');
-      c.width = bitmap.width;
-      c.height = bitmap.height;
-      const g = c.getContext('2d');
-      g.drawImage(bitmap, 0, 0);
-      return g.getImageData(0, 0, c.width, c.height).data;
-    };
-    const [p, q] = [await pixels(x), await pixels(y)];
+  return withPixels(page, [a, b], (p, q) => {
     let changed = 0;
     for (let i = 0; i < p.length; i += 4)
       if (Math.abs(p[i] - q[i]) > 30 || Math.abs(p[i + 1] - q[i + 1]) > 30 || Math.abs(p[i + 2] - q[i + 2]) > 30) changed++;
     return changed / (p.length / 4);
-  }, [a, b]);
+  });
 }
 
 // Points the orbit camera at a world point from `distance` metres towards `towards` (close, so

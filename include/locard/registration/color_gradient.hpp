@@ -20,6 +20,8 @@ inline constexpr double kColorTermWeight = (1.0 - 0.968) / 0.968;
 
 // Intensity in [0, 1]: (r + g + b) / (3 * 255).
 float intensity_of(const Rgb8& c);
+// Every colour's intensity, in order.
+std::vector<float> intensities_of(std::span<const Rgb8> colors);
 
 // Colour gradient d_t of every point t of `tree` (Park et al. eq. 10, as Open3D's
 // ComputeColorGradient): least squares over t's neighbours p_j (the at most max_neighbors
