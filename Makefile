@@ -27,6 +27,8 @@ test: test-release test-asan test-fuzz-short
 test-release: build
 	ctest --preset release
 
+# The asan preset builds with -g1 (line tables: enough for the sanitizers' stack traces): with
+# full -g its ~80 test executables, each holding the static library, filled CI's disk.
 test-asan: setup
 	cmake --preset asan
 	cmake --build --preset asan -j $(JOBS)

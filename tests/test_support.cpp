@@ -21,6 +21,63 @@ namespace locard::test {
 
 std::filesystem::path shared_data() { return LOCARD_SHARED_DATA; }
 
+namespace {
+
+// Scratch folders are removed as soon as what made them passed: a test's at its end, a suite's
+// (made in SetUpTestSuite) at the suite's end, one made outside both (a cached scene) when the
+// process ends. A failure keeps its folder, named on stderr, to look at. Without this the suite
+// leaves gigabytes of reconstructions in the temp folder, and a CI disk fills before ASan links.
+enum class ScratchScope { test, suite, process };
+
+struct ScratchFolder {
+  std::filesystem::path path;
+  ScratchScope scope;
+};
+
+std::vector<ScratchFolder>& scratch_folders() {
+  static std::vector<ScratchFolder> folders;
+  return folders;
+}
+
+void release_scratch(ScratchScope scope, bool passed) {
+  auto& folders = scratch_folders();
+  auto keep = [&](const ScratchFolder& f) {
+    if (f.scope != scope) return true;
+    if (passed) {
+      std::error_code ec;
+      std::filesystem::remove_all(f.path, ec);
+    } else {
+      std::fprintf(stderr, "scratch folder kept: %s\n", f.path.c_str());
+    }
+    return false;
+  };
+  folders.erase(std::remove_if(folders.begin(), folders.end(), [&](const auto& f) { return !keep(f); }),
+                folders.end());
+}
+
+class ScratchCleaner : public ::testing::EmptyTestEventListener {
+  void OnTestEnd(const ::testing::TestInfo& info) override {
+    release_scratch(ScratchScope::test, !info.result()->Failed());
+  }
+  void OnTestSuiteEnd(const ::testing::TestSuite& suite) override {
+    release_scratch(ScratchScope::suite, !suite.ad_hoc_test_result().Failed() && suite.failed_test_count() == 0);
+  }
+  void OnTestProgramEnd(const ::testing::UnitTest& unit) override {
+    release_scratch(ScratchScope::process, unit.Passed());
+  }
+};
+
+void track_scratch(const std::filesystem::path& dir, ScratchScope scope) {
+  static const bool installed = [] {  // the listener list owns it
+    ::testing::UnitTest::GetInstance()->listeners().Append(new ScratchCleaner);
+    return true;
+  }();
+  (void)installed;
+  scratch_folders().push_back({dir, scope});
+}
+
+}  // namespace
+
 std::filesystem::path scratch_dir() {
   // ctest runs the tests of one executable in parallel processes, and SetUpTestSuite has no
   // current test: the suite name plus the process id keeps every caller's folder its own.
@@ -35,6 +92,16 @@ std::filesystem::path scratch_dir() {
   const auto dir = std::filesystem::temp_directory_path() / "locard-tests" / name;
   std::filesystem::remove_all(dir);
   std::filesystem::create_directories(dir);
+  track_scratch(dir, info ? ScratchScope::test : suite ? ScratchScope::suite : ScratchScope::process);
+  return dir;
+}
+
+std::filesystem::path process_scratch_dir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() / "locard-tests" /
+                   (name + "." + std::to_string(::getpid()));
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  track_scratch(dir, ScratchScope::process);
   return dir;
 }
 

@@ -14,8 +14,12 @@ namespace locard::test {
 
 // ../shared/data beside the checkout (LOCARD_SHARED_DATA at configure time).
 std::filesystem::path shared_data();
-// A fresh empty folder under the build tree's temp area, unique per test.
+// A fresh empty folder under the temp area, unique per test (per suite in SetUpTestSuite), removed
+// when that test (suite) passed and kept, named on stderr, when it failed.
 std::filesystem::path scratch_dir();
+// A fresh empty folder shared by the tests of this process (a scene built once and cached),
+// removed when the process ends with every test passed.
+std::filesystem::path process_scratch_dir(const std::string& name);
 
 struct CommandResult {
   int exit_code = -1;

@@ -30,7 +30,7 @@ struct TwoRings {
 
 const TwoRings& two_rings() {
   static const TwoRings rings = [] {
-    const fs::path folder = test::scratch_dir() / "bedroom-two-rings";
+    const fs::path folder = test::process_scratch_dir("bedroom-two-rings");
     sim::Scene scene = sim::builtin_scene("bedroom");
     scene.scanner.set_rings(kViews, {-15.0, 15.0});
     sim::write_simulated_scan(scene, folder);

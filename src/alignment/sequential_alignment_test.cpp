@@ -30,15 +30,12 @@ namespace fs = std::filesystem;
 
 constexpr int kTestViews = 30;  // 12 degrees of yaw between views
 
-// The bedroom turn with kTestViews views, written once per test process. ctest runs every test
+// The bedroom turn with kTestViews views, written once per test process (ctest runs every test
 // of this binary in a process of its own, two at a time: a folder shared between processes was
-// deleted and rewritten by one test while another read it, so the process id is in the name.
+// deleted and rewritten by one test while another read it).
 const fs::path& bedroom() {
   static const fs::path folder = [] {
-    const fs::path f = fs::temp_directory_path() / "locard-tests" /
-                       ("alignment-bedroom-" + std::to_string(kTestViews) + "." +
-                        std::to_string(::getpid()));
-    fs::remove_all(f);
+    const fs::path f = test::process_scratch_dir("alignment-bedroom-" + std::to_string(kTestViews)) / "scan";
     sim::Scene scene = sim::builtin_scene("bedroom");
     scene.scanner.set_rings(kTestViews, {-10.0});  // one ring, as the bedroom had before its downward ring
     sim::write_simulated_scan(scene, f);
