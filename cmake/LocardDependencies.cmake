@@ -15,6 +15,7 @@ find_package(Ceres 2 REQUIRED)        # pose-graph optimisation
 find_package(assimp 5 REQUIRED)       # OBJ/FBX/glTF export and re-import
 find_package(CGAL 5 REQUIRED)         # Delaunay/advancing-front triangulation, hole filling
 find_package(OpenSSL REQUIRED)        # SHA-256 of case inputs and outputs (forensics)
+find_package(pugixml REQUIRED)        # the XML section of E57 files (src/io/e57_*.cpp)
 # Bullet rigid-body physics for `locard simulate`, the double-precision build Debian ships
 # beside the float one. Its config file gives paths relative to BULLET_ROOT_DIR and bare
 # library names, so absolute ones are made here (LOCARD_BULLET_*), linked PRIVATE by the library.

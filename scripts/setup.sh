@@ -9,6 +9,8 @@ packages=(
   # core libraries
   libeigen3-dev libtbb-dev libnanoflann-dev libcli11-dev libspdlog-dev libfmt-dev
   nlohmann-json3-dev libpng-dev libjpeg-dev libdeflate-dev libembree-dev libceres-dev libassimp-dev libcgal-dev
+  # E57 point clouds: their XML section
+  libpugixml-dev
   # case integrity (SHA-256), local viewer server, physics scenarios
   libssl-dev libcpp-httplib-dev libbullet-dev
   # tests of signed and time-stamped cases play the key holder and the authority

@@ -1,4 +1,4 @@
-// `locard convert IN OUT`: cloud to cloud (PLY <-> PCD, ascii/binary/compressed), or an RGB-D
+// `locard convert IN OUT`: cloud to cloud (PLY, PCD, E57; ascii/binary/compressed), or an RGB-D
 // sequence to one point cloud, each frame back-projected at its ground-truth pose.
 #include "commands.hpp"
 
@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <fmt/format.h>
+#include <fmt/ranges.h>
 #include <tbb/parallel_for.h>
 
 namespace locard::cli {
@@ -64,17 +65,29 @@ PointCloud fuse_sequence(const ConvertOptions& opt, bool quiet) {
   return merged;
 }
 
+// E57 data3D has no normals and one scalar (intensity): say what was left out.
+void warn_e57_drops(const PointCloud& cloud) {
+  std::vector<std::string> dropped;
+  if (cloud.has_normals()) dropped.push_back("normals");
+  for (const auto& s : cloud.scalars)
+    if (s.name != "intensity") dropped.push_back("scalar field '" + s.name + "'");
+  if (!dropped.empty())
+    fmt::print(stderr, "convert: E57 keeps positions, colours and intensity; not written: {}\n",
+               fmt::join(dropped, ", "));
+}
+
 }  // namespace
 
 void register_convert(CLI::App& app, GlobalOptions& global) {
   auto opt = std::make_shared<ConvertOptions>();
   CLI::App* sub = app.add_subcommand(
       "convert",
-      "Convert a point cloud between PLY and PCD, or merge an RGB-D sequence with ground-truth "
+      "Convert a point cloud between PLY, PCD and E57 (an E57's scans are merged into its "
+      "frame; an E57 is written as one scan), or merge an RGB-D sequence with ground-truth "
       "poses into one coloured point cloud");
-  sub->add_option("input", opt->input, "Input cloud (.ply, .pcd) or RGB-D sequence folder")
+  sub->add_option("input", opt->input, "Input cloud (.ply, .pcd, .e57) or RGB-D sequence folder")
       ->required();
-  sub->add_option("output", opt->output, "Output cloud (.ply or .pcd)")->required();
+  sub->add_option("output", opt->output, "Output cloud (.ply, .pcd or .e57)")->required();
   sub->add_flag("--ascii", opt->ascii, "Write ascii instead of binary");
   sub->add_flag("--compressed", opt->compressed, "PCD: write binary_compressed (LZF)");
   sub->add_flag("--force", opt->force, "Overwrite an existing output file");
@@ -89,13 +102,14 @@ void register_convert(CLI::App& app, GlobalOptions& global) {
   sub->add_option("--max-depth", opt->max_depth, "Sequence input: farthest depth kept (m)");
   set_runner(sub, [opt, &global]() {
     if (!is_point_cloud_file(opt->output))
-      throw_input_error(opt->output, "output must end in .ply or .pcd");
+      throw_input_error(opt->output, "output must end in .ply, .pcd or .e57");
     if (std::filesystem::exists(opt->output) && !opt->force)
       throw_input_error(opt->output, "output exists; pass --force to overwrite it");
     if (!std::filesystem::exists(opt->input)) throw_input_error(opt->input, "no such file or folder");
     PointCloud cloud;
     const DatasetFormat format = detect_format(opt->input);
-    if (format == DatasetFormat::PlyCloud || format == DatasetFormat::PcdCloud)
+    if (format == DatasetFormat::PlyCloud || format == DatasetFormat::PcdCloud ||
+        format == DatasetFormat::E57Cloud)
       cloud = read_point_cloud(opt->input);
     else if (format == DatasetFormat::Tum || format == DatasetFormat::SevenScenes ||
              format == DatasetFormat::Redwood)
@@ -105,6 +119,7 @@ void register_convert(CLI::App& app, GlobalOptions& global) {
     const auto non_finite = std::count_if(cloud.positions.begin(), cloud.positions.end(),
                                           [](const Eigen::Vector3f& p) { return !p.allFinite(); });
     write_point_cloud(opt->output, cloud, {.ascii = opt->ascii, .compressed = opt->compressed});
+    if (detect_format(opt->output) == DatasetFormat::E57Cloud) warn_e57_drops(cloud);
     if (non_finite)  // a warning even with --quiet: the output holds them too
       fmt::print(stderr, "convert: {} of {} points have NaN or infinite coordinates; written "
                          "as they are\n", non_finite, cloud.size());

@@ -3,6 +3,7 @@
 
 #include <locard/core/error.hpp>
 #include <locard/core/progress.hpp>
+#include <locard/io/e57.hpp>
 #include <locard/io/image_io.hpp>
 #include <locard/io/point_cloud_io.hpp>
 #include <locard/io/rgbd_sequence.hpp>
@@ -17,6 +18,7 @@
 #include <cstdio>
 #include <limits>
 #include <mutex>
+#include <numbers>
 
 namespace locard::cli {
 namespace {
@@ -121,8 +123,61 @@ int info_sequence(const InfoOptions& opt, const GlobalOptions& global) {
   return 0;
 }
 
+// One line per E57 scan: points kept of records stored, fields, pose.
+std::string e57_scan_line(std::size_t i, const E57Scan& s) {
+  const E57ScanFields& f = s.fields;
+  std::string fields = f.coordinates == E57Coordinates::Spherical ? "spherical" : "cartesian";
+  if (f.color) fields += ", colour";
+  if (f.intensity) fields += ", intensity";
+  if (f.row_column) fields += ", row/column";
+  std::string pose = "none (identity)";
+  if (s.has_pose) {
+    const Eigen::AngleAxisd r(s.T_file_scan.linear());
+    const Eigen::Vector3d t = s.T_file_scan.translation();
+    pose = fmt::format("t [{:.4f} {:.4f} {:.4f}] m, rotation {:.3f} deg about [{:.3f} {:.3f} {:.3f}]",
+                       t.x(), t.y(), t.z(), r.angle() * 180.0 / std::numbers::pi, r.axis().x(), r.axis().y(),
+                       r.axis().z());
+  }
+  return fmt::format("  [{}] '{}': {} points of {} records; {}; pose {}", i, s.name,
+                     s.cloud.size(), s.record_count, fields, pose);
+}
+
+nlohmann::json e57_scan_json(const E57Scan& s) {
+  nlohmann::json pose = nullptr;
+  if (s.has_pose) {
+    const Eigen::Quaterniond q(s.T_file_scan.linear());
+    const Eigen::Vector3d t = s.T_file_scan.translation();
+    pose = {{"translation", {t.x(), t.y(), t.z()}}, {"rotation_wxyz", {q.w(), q.x(), q.y(), q.z()}}};
+  }
+  const E57ScanFields& f = s.fields;
+  return {{"name", s.name},
+          {"guid", s.guid},
+          {"records", s.record_count},
+          {"points", s.cloud.size()},
+          {"coordinates", f.coordinates == E57Coordinates::Spherical ? "spherical" : "cartesian"},
+          {"colors", f.color},
+          {"intensity", f.intensity},
+          {"row_column", f.row_column},
+          {"pose", pose}};
+}
+
 int info_cloud(const InfoOptions& opt, DatasetFormat format) {
-  const PointCloud cloud = read_point_cloud(opt.path);
+  PointCloud cloud;
+  nlohmann::json e57_json;  // E57 only: scans and notes
+  std::vector<std::string> e57_lines;
+  if (format == DatasetFormat::E57Cloud) {
+    E57File file = read_e57(opt.path);
+    e57_json = {{"guid", file.guid}, {"scans", nlohmann::json::array()}, {"notes", file.notes}};
+    e57_lines.push_back(fmt::format("scans:         {}", file.scans.size()));
+    for (std::size_t i = 0; i < file.scans.size(); ++i) {
+      e57_json["scans"].push_back(e57_scan_json(file.scans[i]));
+      e57_lines.push_back(e57_scan_line(i, file.scans[i]));
+    }
+    for (const auto& note : file.notes) e57_lines.push_back("note:          " + note);
+    cloud = merge_scans(std::move(file.scans));
+  } else {
+    cloud = read_point_cloud(opt.path);
+  }
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
   Eigen::Vector3f hi = -lo;
   std::size_t non_finite = 0;  // NaN or infinite coordinates: said, never silently folded in
@@ -144,12 +199,15 @@ int info_cloud(const InfoOptions& opt, DatasetFormat format) {
                         {"scalars", scalars},
                         {"non_finite_points", non_finite}};
     if (!cloud.empty()) j["bounds"] = {{lo.x(), lo.y(), lo.z()}, {hi.x(), hi.y(), hi.z()}};
+    if (!e57_json.is_null()) j["e57"] = e57_json;
     std::printf("%s\n", j.dump(2).c_str());
     return 0;
   }
   fmt::print("path:          {}\n", opt.path);
   fmt::print("format:        {}\n", to_string(format));
-  fmt::print("points:        {}\n", cloud.size());
+  for (const auto& line : e57_lines) fmt::print("{}\n", line);
+  fmt::print("points:        {}{}\n", cloud.size(),
+             e57_lines.empty() ? "" : " (all scans, in the file's frame)");
   fmt::print("attributes:    positions{}{}{}\n", cloud.has_normals() ? ", normals" : "",
              cloud.has_colors() ? ", colours" : "",
              scalars.empty() ? "" : ", " + fmt::format("{}", fmt::join(scalars, ", ")));
@@ -195,7 +253,7 @@ int info_conf(const InfoOptions& opt) {
 void register_info(CLI::App& app, GlobalOptions& global) {
   auto opt = std::make_shared<InfoOptions>();
   CLI::App* sub = app.add_subcommand(
-      "info", "Describe an RGB-D sequence (TUM, 7-Scenes, Redwood), a point cloud (PLY, PCD) "
+      "info", "Describe an RGB-D sequence (TUM, 7-Scenes, Redwood), a point cloud (PLY, PCD, E57) "
               "or a Stanford .conf scan set: format, frames, resolution, intrinsics, depth "
               "range, ground truth");
   sub->add_option("path", opt->path, "Dataset folder or file")->required();
@@ -211,6 +269,7 @@ void register_info(CLI::App& app, GlobalOptions& global) {
         return info_sequence(*opt, global);
       case DatasetFormat::PlyCloud:
       case DatasetFormat::PcdCloud:
+      case DatasetFormat::E57Cloud:
         return info_cloud(*opt, format);
       case DatasetFormat::StanfordConf:
         return info_conf(*opt);
@@ -221,7 +280,7 @@ void register_info(CLI::App& app, GlobalOptions& global) {
     throw_input_error(opt->path,
                       "not a recognised dataset (looked for TUM rgb.txt/depth.txt or "
                       "associate.txt, 7-Scenes frame-*.pose.txt, Redwood color/ + depth/, .ply, "
-                      ".pcd, .conf)");
+                      ".pcd, .e57, .conf)");
   });
 }
 

@@ -123,7 +123,7 @@ double extent(const PointCloud& cloud) {
 PointCloud read_cloud(const std::string& path, const char* which) {
   if (!std::filesystem::exists(path)) throw_input_error(path, "no such file");
   if (!is_point_cloud_file(path))
-    throw_input_error(path, fmt::format("the {} must be a .ply or .pcd point cloud", which));
+    throw_input_error(path, fmt::format("the {} must be a .ply, .pcd or .e57 point cloud", which));
   PointCloud cloud = read_point_cloud(path);
   if (cloud.empty()) throw_input_error(path, fmt::format("the {} cloud has no points", which));
   return cloud;
@@ -146,7 +146,7 @@ int run_register(const RegisterOptions& opt, const GlobalOptions& global) {
       throw_input_error(*out, "output exists; pass --force to overwrite it");
   }
   if (!opt.output.empty() && !is_point_cloud_file(opt.output))
-    throw_input_error(opt.output, "the aligned cloud must be written as .ply or .pcd");
+    throw_input_error(opt.output, "the aligned cloud must be written as .ply, .pcd or .e57");
 
   const PointCloud source = read_cloud(opt.source, "source");
   const PointCloud target = read_cloud(opt.target, "target");

@@ -1,6 +1,7 @@
 // Picks the reader/writer from the file extension (case-insensitive).
 
 #include <locard/core/error.hpp>
+#include <locard/io/e57.hpp>
 #include <locard/io/pcd.hpp>
 #include <locard/io/ply.hpp>
 #include <locard/io/point_cloud_io.hpp>
@@ -22,14 +23,16 @@ std::string lower_extension(const std::filesystem::path& path) {
 
 bool is_point_cloud_file(const std::filesystem::path& path) {
   const std::string ext = lower_extension(path);
-  return ext == ".ply" || ext == ".pcd";
+  return ext == ".ply" || ext == ".pcd" || ext == ".e57";
 }
 
 PointCloud read_point_cloud(const std::filesystem::path& path) {
   const std::string ext = lower_extension(path);
   if (ext == ".ply") return read_ply(path);
   if (ext == ".pcd") return read_pcd(path);
-  throw_input_error(path, "unknown point cloud extension '" + ext + "' (expected .ply or .pcd)");
+  if (ext == ".e57") return read_e57_merged(path);
+  throw_input_error(path, "unknown point cloud extension '" + ext +
+                              "' (expected .ply, .pcd or .e57)");
 }
 
 void write_point_cloud(const std::filesystem::path& path, const PointCloud& cloud,
@@ -51,7 +54,14 @@ void write_point_cloud(const std::filesystem::path& path, const PointCloud& clou
                                    : PcdEncoding::Binary);
     return;
   }
-  throw_input_error(path, "unknown point cloud extension '" + ext + "' (expected .ply or .pcd)");
+  if (ext == ".e57") {
+    if (options.ascii || options.compressed)
+      throw_input_error(path, "E57 is binary only; --ascii and --compressed do not apply");
+    write_e57(path, cloud, path.stem().string());  // one scan in the file's frame
+    return;
+  }
+  throw_input_error(path, "unknown point cloud extension '" + ext +
+                              "' (expected .ply, .pcd or .e57)");
 }
 
 }  // namespace locard

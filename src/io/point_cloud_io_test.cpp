@@ -48,6 +48,7 @@ void expect_same(const PointCloud& a, const PointCloud& b) {
 TEST(PointCloudIo, PicksFormatFromExtension) {
   EXPECT_TRUE(is_point_cloud_file("a/b.ply"));
   EXPECT_TRUE(is_point_cloud_file("B.PCD"));
+  EXPECT_TRUE(is_point_cloud_file("scan.E57"));
   EXPECT_FALSE(is_point_cloud_file("b.xyz"));
   EXPECT_FALSE(is_point_cloud_file("ply"));
   const fs::path bun = shared_data() / "stanford-bunny" / "bunny" / "data" / "bun000.ply";
@@ -57,7 +58,7 @@ TEST(PointCloudIo, PicksFormatFromExtension) {
     read_point_cloud("scan.xyz");
     ADD_FAILURE();
   } catch (const InputError& e) {
-    EXPECT_EQ(std::string(e.what()), "scan.xyz: unknown point cloud extension '.xyz' (expected .ply or .pcd)");
+    EXPECT_EQ(std::string(e.what()), "scan.xyz: unknown point cloud extension '.xyz' (expected .ply, .pcd or .e57)");
   }
 }
 

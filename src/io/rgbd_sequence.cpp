@@ -95,6 +95,7 @@ std::string_view to_string(DatasetFormat format) {
     case DatasetFormat::Redwood: return "Redwood";
     case DatasetFormat::PlyCloud: return "PLY point cloud";
     case DatasetFormat::PcdCloud: return "PCD point cloud";
+    case DatasetFormat::E57Cloud: return "E57 point cloud";
     case DatasetFormat::StanfordConf: return "Stanford .conf";
     case DatasetFormat::Unknown: break;
   }
@@ -126,6 +127,7 @@ DatasetFormat detect_format(const fs::path& path) {
     const std::string ext = io_detail::lower_extension(path);
     if (ext == ".ply") return DatasetFormat::PlyCloud;
     if (ext == ".pcd") return DatasetFormat::PcdCloud;
+    if (ext == ".e57") return DatasetFormat::E57Cloud;
     if (ext == ".conf") return DatasetFormat::StanfordConf;
     return DatasetFormat::Unknown;
   }
@@ -149,6 +151,7 @@ RgbdSequence open_rgbd_sequence(const fs::path& path, const SequenceOptions& opt
     case DatasetFormat::Redwood: return read_redwood_sequence(path, options);
     case DatasetFormat::PlyCloud:
     case DatasetFormat::PcdCloud:
+    case DatasetFormat::E57Cloud:
     case DatasetFormat::StanfordConf:
       throw_input_error(path, "is a point-cloud input (" + std::string(to_string(format)) +
                                   "), not an RGB-D sequence");

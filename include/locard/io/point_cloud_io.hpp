@@ -1,5 +1,7 @@
 #pragma once
-// Format-agnostic entry points: the file extension (.ply, .pcd) picks the reader/writer.
+// Format-agnostic entry points: the file extension (.ply, .pcd, .e57) picks the reader/writer.
+// An E57 file is read with all its scans merged into the file's frame, and written as one scan
+// with the identity pose (see io/e57.hpp for scans and poses).
 
 #include <locard/core/point_cloud.hpp>
 

@@ -30,6 +30,7 @@ enum class DatasetFormat {
   Redwood,       // Redwood / Open3D folder
   PlyCloud,      // a single .ply file
   PcdCloud,      // a single .pcd file
+  E57Cloud,      // a single .e57 file (one or more laser scans)
   StanfordConf,  // a Stanford .conf alignment file (or a folder holding one)
 };
 
