@@ -1,7 +1,9 @@
 #!/usr/bin/python3
 # Issue 15 item 1 study: every reference distance of a case measured with both ends moved 1.5 cm
 # along the surface at right angles to the line (both ways), through `locard measure`, as an
-# investigator's clicks land near the tape points. Counts the rows within their stated U with
+# investigator's clicks land near the tape points: 1.5 cm along the tangent (normal of the mesh
+# around the tape point, across the line), then onto the mesh (its closest point), where a click
+# would land. Counts the rows within their stated U with
 # both ends snapped to a feature (a row with an end "not snapped" is never counted within U) and
 # the rows beyond 3 U. Uses Debian's numpy (/usr/bin/python3). Measures into the case: give it
 # a copy.
@@ -29,6 +31,29 @@ P=np.stack([V['p0'],V['p1'],V['p2']],1).astype(float)
 fo=hdr_end+vt.itemsize*nv
 F=np.frombuffer(data,dtype=np.dtype([('n','u1'),('i','<i4',(3,))]),count=nf,offset=fo)['i']
 C=P[F].mean(1); N=np.cross(P[F[:,1]]-P[F[:,0]],P[F[:,2]]-P[F[:,0]]); N/=np.linalg.norm(N,axis=1)[:,None]+1e-12
+def closest_on_triangle(p,a,b,c):
+    # Ericson, Real-Time Collision Detection 5.1.5
+    ab=b-a; ac=c-a; ap=p-a; d1=ab@ap; d2=ac@ap
+    if d1<=0 and d2<=0: return a
+    bp=p-b; d3=ab@bp; d4=ac@bp
+    if d3>=0 and d4<=d3: return b
+    vc=d1*d4-d3*d2
+    if vc<=0 and d1>=0 and d3<=0: return a+d1/(d1-d3)*ab
+    cp=p-c; d5=ab@cp; d6=ac@cp
+    if d6>=0 and d5<=d6: return c
+    vb=d5*d2-d1*d6
+    if vb<=0 and d2>=0 and d6<=0: return a+d2/(d2-d6)*ac
+    va=d3*d6-d5*d4
+    if va<=0 and d4-d3>=0 and d5-d6>=0: return b+(d4-d3)/((d4-d3)+(d5-d6))*(c-b)
+    den=1/(va+vb+vc); return a+ab*vb*den+ac*vc*den
+def onto_mesh(p):
+    # A click lands on the mesh: the closest point of the nearest triangles.
+    idx=np.argsort(np.linalg.norm(C-p,axis=1))[:64]
+    best=None
+    for f in idx:
+        q=closest_on_triangle(p,P[F[f,0]],P[F[f,1]],P[F[f,2]])
+        if best is None or np.linalg.norm(q-p)<np.linalg.norm(best-p): best=q
+    return best
 def normal_at(p):
     d=np.linalg.norm(C-p,axis=1); idx=np.argsort(d)[:30]
     n=N[idx]; n=n*np.sign(n@n[0])[:,None]; n=n.mean(0); return n/np.linalg.norm(n)
@@ -40,7 +65,7 @@ for r in refs:
         for p in (a,b):
             t=np.cross(normal_at(p),d)
             if np.linalg.norm(t)<1e-6: t=np.cross([0,0,1],d)
-            t/=np.linalg.norm(t); ends.append(p+sgn*0.015*t)
+            t/=np.linalg.norm(t); ends.append(onto_mesh(p+sgn*0.015*t))
         fa=','.join('%.4f'%v for v in ends[0]); fb=','.join('%.4f'%v for v in ends[1])
         out=subprocess.run([locard,'measure',case,'--from',fa,'--to',fb,'--no-report','--frame','world','--name','pick'],capture_output=True,text=True)
         m=re.search(r': ([0-9.]+) m \+- ([0-9.]+) m \(k=2\); ends (.+) and (.+)',out.stdout)

@@ -19,6 +19,7 @@
 #include <array>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <random>
@@ -183,6 +184,53 @@ std::string describe(SnapFeature feature) {
   return std::string(to_string(feature));
 }
 
+namespace {
+
+// Cos of the widest angle between a plane's normal and the measuring direction for the plane
+// to face it (a wall, a box's end face), and the largest for it to lie along it (a side plane).
+const double kCosFacing = std::cos(35.0 * M_PI / 180.0);
+constexpr double kCosSide = 0.5;
+
+// Where a pick that is on no surface along the measuring direction may land. A click beside a
+// box's edge, on a face the scanner never saw (the mesh closes it), or a few millimetres off
+// the surface the mesh smoothed, then measures from the surface the investigator meant instead
+// of counting as "not snapped". Candidates are the planes along o (|n.o| < kCosSide) whose
+// points come within `reach` of the pick across the line, each at those nearest points, nearest
+// first; the move is across the line only, so the pick keeps its place along o (where the end
+// lies along the line is the snapping's to find). Empty when the pick already lies on such a
+// plane.
+std::vector<Vector3d> landing_candidates(const std::vector<Plane>& planes, const LocalPoints& L,
+                                         const Vector3d& point, const Vector3d& o,
+                                         double on_point, double reach) {
+  std::vector<std::pair<double, Vector3d>> found;
+  for (const Plane& p : planes) {
+    if (std::abs(p.normal.dot(o)) >= kCosSide) continue;
+    if (std::abs(p.distance(point)) <= on_point) return {};
+    double nearest = reach;
+    Vector3d at = point;
+    for (auto i : p.inliers) {
+      const Vector3d across = L.points[i] - point - (L.points[i] - point).dot(o) * o;
+      if (across.norm() < nearest) {
+        nearest = across.norm();
+        at = point + across;
+      }
+    }
+    if (nearest >= reach) continue;
+    const Vector3d n_across = (p.normal - p.normal.dot(o) * o).normalized();
+    found.emplace_back(nearest, at - p.distance(at) / p.normal.dot(n_across) * n_across);
+  }
+  std::sort(found.begin(), found.end(), [](const auto& x, const auto& y) { return x.first < y.first; });
+  std::vector<Vector3d> out;
+  for (const auto& f : found) out.push_back(f.second);
+  return out;
+}
+
+SnappedPoint snap_on_model(const CaseModel& model, const Vector3d& point,
+                           const std::optional<Vector3d>& outward, const SnapOptions& options,
+                           bool may_land);
+
+}  // namespace
+
 SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
                         const std::optional<Vector3d>& outward, const SnapOptions& options) {
   if (!point.allFinite()) throw InputError("measurement point has non-finite coordinates");
@@ -192,6 +240,14 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
         "point ({:.4f}, {:.4f}, {:.4f}) is off the model: the nearest surface is {:.3f} m away "
         "(at most {:.3f} m allowed); pick a point on a surface",
         point.x(), point.y(), point.z(), off, options.max_snap_distance_m));
+  return snap_on_model(model, point, outward, options, true);
+}
+
+namespace {
+
+SnappedPoint snap_on_model(const CaseModel& model, const Vector3d& point,
+                           const std::optional<Vector3d>& outward, const SnapOptions& options,
+                           bool may_land) {
   SnappedPoint s;
   s.given = point;
   s.snapped = point;
@@ -204,6 +260,28 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
   const double threshold = std::max(options.plane_inlier_m, 2.5 * median(sig));
   const std::vector<Plane> planes = find_planes(L, threshold, options.min_plane_points);
   s.planes = planes.size();
+  if (outward && may_land) {
+    SnappedPoint direct = snap_on_model(model, point, outward, options, false);
+    if (is_snapped(direct.feature)) return direct;
+    const Vector3d o = outward->normalized();
+    const double on_point = std::max(0.006, threshold);
+    // Not snapped where it was picked: landing on a surface nearby. Nearest landing first; the first from which the end snaps is taken (a spurious plane of
+    // mixed pixels, or a wall behind a window's edge, lands where nothing fixes the end). The
+    // move is across the measuring line: it changes neither the distance nor its uncertainty.
+    std::vector<Vector3d> landings = landing_candidates(planes, L, point, o, on_point, 0.5 * options.search_radius_m);
+    if (landings.empty() && planes.empty()) {  // nothing seen within reach: look twice as far
+      const LocalPoints wide = model.local_points(point, 2 * options.search_radius_m);
+      landings = landing_candidates(find_planes(wide, threshold, options.min_plane_points), wide, point, o,
+                                    on_point, options.search_radius_m);
+    }
+    for (const Vector3d& landed : landings) {
+      SnappedPoint moved = snap_on_model(model, landed, outward, options, false);
+      if (!is_snapped(moved.feature)) continue;
+      moved.given = point;
+      return moved;
+    }
+    return direct;
+  }
   if (planes.empty()) {
     if (outward) {  // nothing to snap to across the line: as picked
       s.feature = SnapFeature::NotSnapped;
@@ -228,8 +306,8 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
     return s;
   }
   const Vector3d o = outward->normalized();
-  const double cos_facing = std::cos(35.0 * M_PI / 180.0);
   const double on_point = std::max(0.006, threshold);  // a side plane must pass through p
+  const double cos_facing = kCosFacing;
   std::vector<const Plane*> side;
   const Plane* facing = nullptr;
   double facing_t = 0.0;
@@ -247,7 +325,7 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
         facing = &p;
         facing_t = t;
       }
-    } else if (std::abs(c) < 0.5 && std::abs(p.distance(point)) <= on_point) {
+    } else if (std::abs(c) < kCosSide && std::abs(p.distance(point)) <= on_point) {
       side.push_back(&p);
     }
   }
@@ -289,6 +367,7 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
     // Counts the side planes' points near the edge: within `band` of the measuring line
     // along the edge (and on the plane). A straight edge may be followed farther along itself
     // when something hides it right at the measuring line (a handle in front of a door).
+    std::vector<bool> foreign;  // wide points on another surface (count(..., true) skips them)
     auto count = [&](const LocalPoints& pts, double band, bool all_points) {
       per_view.clear();
       farthest = -std::numeric_limits<double>::infinity();
@@ -296,7 +375,7 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
         const Vector3d along_edge = p->normal.cross(o).normalized();
         auto visit = [&](std::uint32_t i) {
           const Vector3d rel = pts.points[i] - q;
-          if (all_points && std::abs(p->distance(pts.points[i])) > threshold) return;
+          if (all_points && (foreign[i] || std::abs(p->distance(pts.points[i])) > threshold)) return;
           const double s_along = rel.dot(o);
           if (std::abs(rel.dot(along_edge)) > band) return;
           double step = model.model_voxel_m();
@@ -321,6 +400,16 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
     for (const auto& [view, e] : per_view) window_total += e[0];
     if (farthest < options.edge_margin_m && window_total < 8) {
       const LocalPoints wide = model.local_points(q, options.edge_follow_m);
+      // A surface across the side plane (the wall a radiator's side runs into) crosses it in a
+      // line of points that would read as the side going on: points on planes of their own, at
+      // more than 20 degrees to every side plane, are not counted.
+      foreign.assign(wide.points.size(), false);
+      for (const Plane& w : find_planes(wide, threshold, options.min_plane_points, 6)) {
+        bool along_a_side = false;
+        for (const Plane* p : side) along_a_side |= std::abs(w.normal.dot(p->normal)) > std::cos(20.0 * M_PI / 180.0);
+        if (!along_a_side)
+          for (auto i : w.inliers) foreign[i] = true;
+      }
       count(wide, options.edge_follow_m, true);
       s.points += wide.points.size();
     }
@@ -388,6 +477,8 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
   s.covariance = cov;
   return s;
 }
+
+}  // namespace
 
 PointToPointMeasurement measure_point_to_point(const CaseModel& model, const Vector3d& a,
                                                const Vector3d& b, const SnapOptions& options) {

@@ -143,6 +143,24 @@ TEST_F(Snapping, TheTopEndsAtEdgesAndCorners) {
   expect_measures(corner, kLength, "top front corners");
 }
 
+TEST_F(Snapping, PicksOffTheSurfaceLandOnItAndSnap) {
+  // Clicks near the crate's ends that miss its surface: 1 cm above the top, and in the air
+  // 1.2 cm in front of the front face (a side the line runs along). Each lands on the plane the
+  // investigator meant, across the line, and snaps to the end's edge or corner there; `given`
+  // keeps the click.
+  const auto above = measure_point_to_point(model(), {-0.39, 0.05, 0.51}, {0.39, 0.05, 0.51});
+  EXPECT_TRUE(is_snapped(above.a.feature) && is_snapped(above.b.feature))
+      << to_string(above.a.feature) << " " << to_string(above.b.feature);
+  EXPECT_NEAR(above.a.given.z(), 0.51, 1e-12);
+  EXPECT_NEAR(above.a.snapped.z(), kHeight, 0.004);  // on the top, not 1 cm above it
+  expect_measures(above, kLength, "1 cm above the top");
+  const auto in_front = measure_point_to_point(model(), {-0.39, -0.262, 0.49}, {0.39, -0.262, 0.49});
+  EXPECT_TRUE(is_snapped(in_front.a.feature) && is_snapped(in_front.b.feature))
+      << to_string(in_front.a.feature) << " " << to_string(in_front.b.feature);
+  EXPECT_NEAR(in_front.b.snapped.y(), -0.5 * kWidth, 0.004);
+  expect_measures(in_front, kLength, "in front of the front face");
+}
+
 TEST_F(Snapping, AFloorWithNothingAcrossTheLineIsNotSnapped) {
   // Two points on the open floor, measured along it: nothing ends or faces the line, so each
   // end keeps the picked place along the line - said so, not labelled as a snap.
