@@ -23,6 +23,9 @@ packages=(
   libgtest-dev libgmock-dev libbenchmark-dev
   # reference peer for benchmarks and cross-checks (never a runtime dependency)
   python3 python3-numpy python3-open3d
+  # re-import tests of the mesh exports (tests/reimport): the tools investigators open them in;
+  # meshlabserver needs an X display for its GL context (xvfb-run)
+  blender assimp-utils cloudcompare meshlab xvfb xauth
 )
 
 # Node.js and npm bundle the viewer (three.js) and drive the browser tests. A machine may

@@ -1,10 +1,13 @@
 // The `locard` command as a user runs it: real datasets, exit codes, no partial output.
 #include "test_support.hpp"
 
+#include <locard/io/mesh_export.hpp>
+#include <locard/io/ply.hpp>
 #include <locard/io/point_cloud_io.hpp>
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <fstream>
 
 namespace locard {
@@ -96,6 +99,34 @@ TEST(Cli, ConvertOfATruncatedCloudFailsAndLeavesNoOutput) {
   EXPECT_EQ(r.exit_code, 2) << r.output;
   EXPECT_TRUE(contains(r.output, "in.ply")) << r.output;
   EXPECT_EQ(test::list_folder(dir), "in.ply\n");
+}
+
+// A case's mesh.ply re-exported with the other up axis: the FBX and OBJ (with its .mtl and
+// texture) hold the same vertices, in Locard's frame once the chosen turn is undone.
+TEST(Cli, ConvertExportsAPlyMeshWithTheChosenUpAxis) {
+  const auto dir = test::scratch_dir();
+  TriangleMesh mesh;
+  mesh.vertices = {{0.f, 3.f, 0.f}, {1.f, 3.f, 0.f}, {0.f, 3.f, 2.f}, {1.f, 3.5f, 2.f}};
+  mesh.vertex_colors = {{255, 0, 0}, {0, 255, 0}, {0, 0, 255}, {9, 99, 199}};
+  mesh.triangles = {{0, 1, 2}, {1, 3, 2}};
+  write_ply(dir / "mesh.ply", mesh);
+  for (const char* out : {"m.fbx", "m.obj"}) {
+    const auto r = run_cli("--quiet convert '" + (dir / "mesh.ply").string() + "' '" +
+                           (dir / out).string() + "' --up z");
+    ASSERT_EQ(r.exit_code, 0) << r.output;
+    const TriangleMesh back = read_mesh_assimp(dir / out, UpAxis::Z);
+    ASSERT_EQ(back.vertex_count(), 4u) << out;
+    for (std::size_t i = 0; i < 4; ++i) {
+      const auto& p = back.vertices[i];
+      const bool found = std::any_of(mesh.vertices.begin(), mesh.vertices.end(),
+                                     [&](const Eigen::Vector3f& q) { return (p - q).norm() < 1e-6f; });
+      EXPECT_TRUE(found) << out << ": " << p.transpose();
+    }
+  }
+  EXPECT_EQ(test::list_folder(dir), "m.fbx\nm.mtl\nm.obj\nm.png\nmesh.ply\n");
+  const auto bad = run_cli("convert '" + (dir / "mesh.ply").string() + "' '" +
+                           (dir / "x.fbx").string() + "' --up x");
+  EXPECT_NE(bad.exit_code, 0);
 }
 
 // Issue 14: NaN and infinite coordinates passed info and convert silently.

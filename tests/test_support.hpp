@@ -12,6 +12,20 @@
 
 namespace locard::test {
 
+// True in the ASan+UBSan build (gcc's macro or clang's feature test): whole reconstructions
+// there take many times their release time, so a few tests keep to release builds.
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kSanitized = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+inline constexpr bool kSanitized = true;
+#else
+inline constexpr bool kSanitized = false;
+#endif
+#else
+inline constexpr bool kSanitized = false;
+#endif
+
 // ../shared/data beside the checkout (LOCARD_SHARED_DATA at configure time).
 std::filesystem::path shared_data();
 // A fresh empty folder under the temp area, unique per test (per suite in SetUpTestSuite), removed

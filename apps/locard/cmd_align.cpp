@@ -138,7 +138,7 @@ std::optional<ScanSet> find_scan_set(const std::filesystem::path& path, DatasetF
   ScanSet set;
   if (format == DatasetFormat::StanfordConf) {
     conf_path = path;
-  } else if (format == DatasetFormat::Unknown && fs::is_directory(path)) {
+  } else if (format == DatasetFormat::RangeScanFolder) {
     std::vector<fs::path> confs, clouds;
     for (const auto& e : fs::directory_iterator(path)) {
       if (e.path().extension() == ".conf") confs.push_back(e.path());

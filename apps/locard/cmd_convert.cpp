@@ -1,9 +1,12 @@
-// `locard convert IN OUT`: cloud to cloud (PLY, PCD, E57; ascii/binary/compressed), or an RGB-D
-// sequence to one point cloud, each frame back-projected at its ground-truth pose.
+// `locard convert IN OUT`: cloud to cloud (PLY, PCD, E57; ascii/binary/compressed), an RGB-D
+// sequence to one point cloud, each frame back-projected at its ground-truth pose, or a PLY
+// mesh (a case's mesh/mesh.ply) to OBJ, GLB, glTF or FBX with the up axis chosen (--up).
 #include "commands.hpp"
 
 #include <locard/core/error.hpp>
 #include <locard/core/progress.hpp>
+#include <locard/io/mesh_export.hpp>
+#include <locard/io/ply.hpp>
 #include <locard/io/point_cloud_io.hpp>
 #include <locard/io/rgbd_sequence.hpp>
 #include <locard/preprocess/depth_to_points.hpp>
@@ -29,7 +32,32 @@ struct ConvertOptions {
   double max_depth = 10.0;
   long first = 0;
   long count = -1;
+  // mesh -> mesh
+  std::string up = "y";  // parsed by parse_up_axis (CLI::IsMember checked it)
 };
+
+// OBJ, glTF and FBX outputs are meshes; PLY stays a cloud output (a mesh's PLY is its own).
+bool is_mesh_export(const std::filesystem::path& path) {
+  const auto format = mesh_format_from_path(path);
+  return format && *format != MeshFormat::Ply;
+}
+
+int convert_mesh(const ConvertOptions& opt, bool quiet) {
+  if (detect_format(opt.input) != DatasetFormat::PlyCloud)
+    throw_input_error(opt.input, "a mesh export (.obj, .glb, .gltf, .fbx) needs a PLY mesh input");
+  const TriangleMesh mesh = read_ply_mesh(opt.input);
+  if (mesh.triangles.empty())
+    throw_input_error(opt.input, "has no faces: not a mesh (write a cloud as .ply, .pcd or .e57)");
+  MeshExportOptions options;
+  options.up = parse_up_axis(opt.up).value_or(UpAxis::Y);
+  std::vector<std::string> written;
+  for (const auto& path : write_mesh(opt.output, mesh, options)) written.push_back(path.string());
+  if (!quiet)
+    fmt::print("wrote {} ({} vertices, {} triangles{}, {}-up)\n", fmt::join(written, ", "),
+               mesh.vertex_count(), mesh.triangle_count(),
+               mesh.vertex_colors.empty() ? "" : ", colours", opt.up);
+  return 0;
+}
 
 PointCloud fuse_sequence(const ConvertOptions& opt, bool quiet) {
   const RgbdSequence seq = open_rgbd_sequence(opt.input);
@@ -87,7 +115,10 @@ void register_convert(CLI::App& app, GlobalOptions& global) {
       "poses into one coloured point cloud");
   sub->add_option("input", opt->input, "Input cloud (.ply, .pcd, .e57) or RGB-D sequence folder")
       ->required();
-  sub->add_option("output", opt->output, "Output cloud (.ply, .pcd or .e57)")->required();
+  sub->add_option("output", opt->output,
+                  "Output cloud (.ply, .pcd or .e57), or mesh (.obj, .glb, .gltf, .fbx) from a "
+                  "PLY mesh")
+      ->required();
   sub->add_flag("--ascii", opt->ascii, "Write ascii instead of binary");
   sub->add_flag("--compressed", opt->compressed, "PCD: write binary_compressed (LZF)");
   sub->add_flag("--force", opt->force, "Overwrite an existing output file");
@@ -100,12 +131,18 @@ void register_convert(CLI::App& app, GlobalOptions& global) {
       ->check(CLI::PositiveNumber);
   sub->add_option("--min-depth", opt->min_depth, "Sequence input: nearest depth kept (m)");
   sub->add_option("--max-depth", opt->max_depth, "Sequence input: farthest depth kept (m)");
+  sub->add_option("--up", opt->up,
+                  "Mesh output: the axis that points up in OBJ and FBX (y: Blender, Unity; z: "
+                  "CloudCompare, surveying tools); glTF is always y-up")
+      ->check(CLI::IsMember({"y", "z"}))
+      ->capture_default_str();
   set_runner(sub, [opt, &global]() {
-    if (!is_point_cloud_file(opt->output))
-      throw_input_error(opt->output, "output must end in .ply, .pcd or .e57");
+    if (!is_point_cloud_file(opt->output) && !is_mesh_export(opt->output))
+      throw_input_error(opt->output, "output must end in .ply, .pcd, .e57, .obj, .glb, .gltf or .fbx");
     if (std::filesystem::exists(opt->output) && !opt->force)
       throw_input_error(opt->output, "output exists; pass --force to overwrite it");
     if (!std::filesystem::exists(opt->input)) throw_input_error(opt->input, "no such file or folder");
+    if (is_mesh_export(opt->output)) return convert_mesh(*opt, global.quiet);
     PointCloud cloud;
     const DatasetFormat format = detect_format(opt->input);
     if (format == DatasetFormat::PlyCloud || format == DatasetFormat::PcdCloud ||

@@ -7,6 +7,7 @@
 #include <locard/io/image_io.hpp>
 #include <locard/io/point_cloud_io.hpp>
 #include <locard/io/rgbd_sequence.hpp>
+#include <locard/io/range_scans.hpp>
 #include <locard/io/stanford_conf.hpp>
 
 #include <fmt/format.h>
@@ -248,6 +249,26 @@ int info_conf(const InfoOptions& opt) {
   return 0;
 }
 
+// A folder of range scans (io/range_scans.hpp): the scans `reconstruct` and `align` register.
+int info_scan_folder(const InfoOptions& opt) {
+  const std::optional<RangeScanSet> set = find_range_scans(opt.path);
+  if (!set) throw_input_error(opt.path, "expected a folder of two or more .ply / .pcd scans");
+  if (opt.json) {
+    nlohmann::json scans = nlohmann::json::array();
+    for (const auto& s : set->scans) scans.push_back({{"name", s.name}});
+    std::printf("%s\n", nlohmann::json{{"path", opt.path}, {"format", "range-scan-folder"},
+                                       {"scans", scans}, {"ground_truth", false}}
+                            .dump(2)
+                            .c_str());
+    return 0;
+  }
+  fmt::print("path:          {}\n", opt.path);
+  fmt::print("format:        range-scan-folder (scans in their own frames, no poses)\n");
+  fmt::print("scans:         {}\n", set->scans.size());
+  for (const auto& s : set->scans) fmt::print("  {}\n", s.name);
+  return 0;
+}
+
 }  // namespace
 
 void register_info(CLI::App& app, GlobalOptions& global) {
@@ -273,6 +294,8 @@ void register_info(CLI::App& app, GlobalOptions& global) {
         return info_cloud(*opt, format);
       case DatasetFormat::StanfordConf:
         return info_conf(*opt);
+      case DatasetFormat::RangeScanFolder:
+        return info_scan_folder(*opt);
       case DatasetFormat::Unknown:
         break;
     }

@@ -57,6 +57,7 @@ struct MeshOptions {
   std::size_t fill_holes = 0;
   std::size_t target_triangles = 0;
   std::string formats = "ply,obj,glb,fbx";
+  std::string up = "y";  // OBJ and FBX; parsed by parse_up_axis (CLI::IsMember checked it)
   bool show_inferred = false;
   bool no_cloud = false;
   bool force = false;
@@ -103,14 +104,14 @@ SequencePoses load_poses(const MeshOptions& o, const RgbdSequence& sequence) {
 }
 
 void write_meshes(const MeshOptions& o, const std::vector<MeshFormat>& formats,
-                  const TriangleMesh& mesh, const MeshExportOptions& export_options,
+                  const TriangleMesh& mesh, MeshExportOptions export_options,
                   std::vector<std::string>& written) {
   fs::create_directories(o.output);
+  export_options.up = parse_up_axis(o.up).value_or(UpAxis::Y);
   for (MeshFormat f : formats) {
     const fs::path path = fs::path(o.output) / fmt::format("mesh.{}", to_string(f));
-    write_mesh(path, mesh, export_options);
-    written.push_back(path.filename().string());
-    if (f == MeshFormat::Obj) written.push_back("mesh.mtl");
+    for (const fs::path& file : write_mesh(path, mesh, export_options))  // OBJ: + .mtl, .png
+      written.push_back(file.filename().string());
   }
 }
 
@@ -123,7 +124,8 @@ PointCloud merged_cloud(const MeshOptions& o, const GlobalOptions& global, std::
   std::vector<fs::path> files;
   if (fs::is_regular_file(o.input)) {
     files.push_back(o.input);
-  } else if (detect_format(o.input) == DatasetFormat::Unknown) {
+  } else if (const DatasetFormat f = detect_format(o.input);
+             f == DatasetFormat::Unknown || f == DatasetFormat::RangeScanFolder) {
     for (const auto& entry : fs::directory_iterator(o.input))
       if (entry.is_regular_file() && is_point_cloud_file(entry.path()))
         files.push_back(entry.path());
@@ -382,6 +384,11 @@ void register_mesh(CLI::App& app, GlobalOptions& global) {
   sub->add_option("--target-triangles", opt->target_triangles,
                   "Decimate to about this many triangles (0: keep all)");
   sub->add_option("--format", opt->formats, "Comma-separated: ply, obj, glb, gltf, fbx")
+      ->capture_default_str();
+  sub->add_option("--up", opt->up,
+                  "The axis that points up in OBJ and FBX (y: Blender, Unity; z: CloudCompare, "
+                  "surveying tools); glTF is always y-up, PLY keeps Locard's z-up frame")
+      ->check(CLI::IsMember({"y", "z"}))
       ->capture_default_str();
   sub->add_flag("--no-cloud", opt->no_cloud, "Do not write the registered point cloud");
   sub->add_flag("--force", opt->force, "Write into a non-empty output folder");

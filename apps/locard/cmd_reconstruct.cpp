@@ -30,6 +30,8 @@ struct ReconstructCli {
   std::optional<std::size_t> frames;
   std::optional<std::uint64_t> seed;
   std::optional<std::string> mode;
+  std::optional<std::string> scan_poses;
+  std::optional<std::string> up;
   bool no_pdf = false;
   bool force = false;
 };
@@ -53,6 +55,8 @@ int run_reconstruct(const ReconstructCli& o, const GlobalOptions& global) {
   if (o.frames) p.max_frames = *o.frames;
   if (o.seed) p.seed = *o.seed;
   if (o.mode) p.mode = *o.mode;
+  if (o.scan_poses) p.scan_poses = *o.scan_poses;
+  if (o.up) p.up = *o.up;
   if (o.no_pdf) p.pdf = false;
 
   const bool show = ProgressBar::should_show(global.quiet);
@@ -119,7 +123,9 @@ void register_reconstruct(CLI::App& app, GlobalOptions& global) {
       "reconstruct",
       "Scan to case folder in one command: hash the inputs, align (registration, loop closure, "
       "pose graph), mesh, export, measure the reference distances, write the report");
-  cmd->add_option("input", o->input, "RGB-D sequence folder (TUM, 7-Scenes, Redwood, scan-sim)")
+  cmd->add_option("input", o->input,
+                  "RGB-D sequence folder (TUM, 7-Scenes, Redwood, scan-sim), or range scans: a "
+                  "Stanford .conf, a folder of PLY/PCD scans, an E57 file of several scans")
       ->required();
   cmd->add_option("-o,--output", o->output, "Case folder to create")->required();
   cmd->add_option("--config", o->config,
@@ -133,6 +139,14 @@ void register_reconstruct(CLI::App& app, GlobalOptions& global) {
   cmd->add_option("--mode", o->mode,
                   "cumulative or odometry (default: from the data: odometry for video, "
                   "cumulative for a tripod turn)");
+  cmd->add_option("--scan-poses", o->scan_poses,
+                  "Range scans: input (start from the poses the input gives, default) or global "
+                  "(feature registration for every pair)")
+      ->check(CLI::IsMember({"input", "global"}));
+  cmd->add_option("--up", o->up,
+                  "The axis that points up in mesh.obj and mesh.fbx: y (default; Blender, "
+                  "Unity) or z (CloudCompare, surveying tools); mesh.glb is always y-up")
+      ->check(CLI::IsMember({"y", "z"}));
   cmd->add_flag("--no-pdf", o->no_pdf, "Do not print report.pdf");
   cmd->add_flag("--force", o->force, "Replace an existing case folder");
   set_runner(cmd, [o, &global] { return run_reconstruct(*o, global); });

@@ -16,17 +16,7 @@
 namespace locard::forensics {
 namespace {
 
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kSanitized = true;
-#elif defined(__has_feature)
-#if __has_feature(address_sanitizer)
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
-#else
-constexpr bool kSanitized = false;
-#endif
+using test::kSanitized;
 
 TEST(BedroomTableOne, EveryDimensionWithinBoundsAndItsUncertainty) {
   if (kSanitized) GTEST_SKIP() << "full 66-view reconstruction: release builds only";

@@ -96,6 +96,12 @@ CaseSensor read_case_sensor(const fs::path& path) {
         !case_json.at("sensor").is_object())
       throw_input_error(path, "expected an object with a \"sensor\" object");
     const json& sensor = case_json.at("sensor");
+    // Range scans have no camera model: intrinsics stay invalid (observing_views then counts
+    // every view) and the noise is the range scanner's.
+    if (sensor.value("kind", "") == "range_scan") {
+      out.noise.name = sensor.value("noise_model", "range_scanner");
+      return out;
+    }
     CameraIntrinsics& K = out.intrinsics;
     for (const char* key : {"width", "height"}) {
       const json& v = sensor.at(key);
@@ -141,8 +147,11 @@ double SensorNoiseModel::axial_sigma_m(double z_m, double incidence_rad) const {
   const double grazing = 1.0 / std::max(0.2, std::cos(std::clamp(incidence_rad, 0.0, 1.5)));
   if (name == "structured_light") return (0.0012 + 0.0019 * (z_m - 0.4) * (z_m - 0.4)) * grazing;
   if (name == "realsense") return 0.008 * z_m * grazing;
+  // Laser range scans: 1 mm, a terrestrial scanner's ranging noise at 10-25 m (an object
+  // scanner's is lower: this overstates it, never understates it).
+  if (name == "range_scanner") return 0.001 * grazing;
   throw InputError(fmt::format("unknown sensor noise model '{}' (kinect_v2, structured_light, "
-                               "realsense)",
+                               "realsense, range_scanner)",
                                name));
 }
 
@@ -247,6 +256,10 @@ std::vector<std::uint32_t> CaseModel::observing_views(const Eigen::Vector3d& p,
                                                       double tolerance_m) const {
   std::vector<std::uint32_t> out;
   const CameraIntrinsics& K = impl_->intrinsics;
+  if (!K.valid()) {  // range scans: no camera model to test visibility with
+    for (std::uint32_t k = 0; k < impl_->views.size(); ++k) out.push_back(k);
+    return out;
+  }
   for (std::uint32_t k = 0; k < impl_->views.size(); ++k) {
     const Isometry3d& T = impl_->views[k].T_world_camera;
     const Eigen::Vector3d pc = T.inverse() * p;

@@ -22,11 +22,7 @@ namespace fs = std::filesystem;
 
 // The sanitizer pass (CI's second, near its time budget) skips the tests that simulate a
 // second scan; the coverage code runs under it in the others.
-#if defined(__SANITIZE_ADDRESS__)
-constexpr bool kSanitized = true;
-#else
-constexpr bool kSanitized = false;
-#endif
+using test::kSanitized;
 
 RgbdSequence bedroom_scan(const std::string& name, std::vector<double> pitch_deg) {
   sim::Scene scene = sim::builtin_scene("bedroom");

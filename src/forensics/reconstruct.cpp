@@ -1,6 +1,7 @@
 #include <locard/forensics/reconstruct.hpp>
 
 #include "forensics/json_util.hpp"
+#include "forensics/reconstruct_stages.hpp"
 
 #include <locard/alignment/alignment_defaults.hpp>
 #include <locard/alignment/sequential_alignment.hpp>
@@ -17,6 +18,7 @@
 #include <locard/forensics/report.hpp>
 #include <locard/io/mesh_export.hpp>
 #include <locard/io/ply.hpp>
+#include <locard/io/range_scans.hpp>
 #include <locard/io/gravity.hpp>
 #include <locard/io/rgbd_sequence.hpp>
 #include <locard/io/trajectory_io.hpp>
@@ -65,11 +67,10 @@ std::pair<std::vector<Eigen::Vector3d>, Eigen::Vector3d> floor_evidence(
 
 }  // namespace
 
-namespace {
-
 namespace fs = std::filesystem;
 using nlohmann::json;
-using Clock = std::chrono::steady_clock;
+
+namespace detail {
 
 double seconds_since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
@@ -120,10 +121,13 @@ void for_each_field(ReconstructParameters& p, F&& f) {
   f("loop_max_distance_m", p.loop_max_distance_m);
   f("loop_min_fitness", p.loop_min_fitness);
   f("seed", p.seed);
+  f("scan_poses", p.scan_poses);
+  f("scan_voxel_m", p.scan_voxel_m);
   f("mesh_voxel_m", p.mesh_voxel_m);
   f("truncation_m", p.truncation_m);
   f("min_component", p.min_component);
   f("formats", p.formats);
+  f("up", p.up);
   f("cloud_voxel_m", p.cloud_voxel_m);
   f("world_frame", p.world_frame);
   f("snap_radius_m", p.snap_radius_m);
@@ -163,7 +167,9 @@ std::vector<FileRecord> hash_inputs(const fs::path& root, const ProgressCallback
 
 std::string software_version() { return LOCARD_VERSION; }
 
-}  // namespace
+}  // namespace detail
+
+using namespace detail;
 
 std::string ReconstructParameters::to_json() const { return parameters_json(*this).dump(1); }
 
@@ -269,7 +275,9 @@ ReconstructPlan plan_reconstruct(const fs::path& input, const ReconstructParamet
   if (plan.format != DatasetFormat::Tum && plan.format != DatasetFormat::SevenScenes &&
       plan.format != DatasetFormat::Redwood)
     throw_input_error(input, fmt::format("expected an RGB-D sequence folder (TUM, 7-Scenes, "
-                                         "Redwood or `locard scan-sim` output), found {}",
+                                         "Redwood or `locard scan-sim` output) or range scans "
+                                         "(a Stanford .conf, a folder of two or more PLY/PCD "
+                                         "scans, an E57 file of two or more scans), found {}",
                                          to_string(plan.format)));
   const auto mode = parse_alignment_mode(P.mode);
   if (!mode) throw InputError(fmt::format("mode must be cumulative or odometry, got '{}'", P.mode));
@@ -281,15 +289,7 @@ ReconstructPlan plan_reconstruct(const fs::path& input, const ReconstructParamet
   plan.odometry_icp = *odometry_icp;
   if (P.world_frame != "auto" && P.world_frame != "first-camera")
     throw InputError(fmt::format("world_frame must be auto or first-camera, got '{}'", P.world_frame));
-  if (P.paper != "A4" && P.paper != "letter")
-    throw InputError(fmt::format("paper must be A4 or letter, got '{}'", P.paper));
-  {
-    std::stringstream ss(P.formats);
-    std::string name;
-    while (std::getline(ss, name, ','))
-      if (const auto f = parse_mesh_format(name)) plan.formats.push_back(*f);
-      else throw InputError(fmt::format("formats: unknown mesh format '{}'", name));
-  }
+  plan.formats = check_output_parameters(P);
   plan.sequence = open_rgbd_sequence(input);
   if (plan.sequence.frames.size() < 2)
     throw_input_error(input, "the sequence needs at least two frames");
@@ -678,17 +678,7 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
   end("mesh");
   const std::size_t raw_triangles = fused.mesh.triangle_count();
   const ComponentReport components = remove_small_components(fused.mesh, P.min_component);
-  std::vector<fs::path> mesh_outputs;
-  for (MeshFormat f : formats) {
-    const fs::path rel = fmt::format("mesh/mesh.{}", to_string(f));
-    write_mesh(folder.path(rel), fused.mesh);
-    mesh_outputs.push_back(rel);
-    if (f == MeshFormat::Obj) mesh_outputs.push_back("mesh/mesh.mtl");
-  }
-  if (std::find(formats.begin(), formats.end(), MeshFormat::Ply) == formats.end()) {
-    write_mesh(folder.path("mesh/mesh.ply"), fused.mesh);  // measurements need it
-    mesh_outputs.push_back("mesh/mesh.ply");
-  }
+  const std::vector<fs::path> mesh_outputs = write_mesh_files(folder, fused.mesh, formats, export_up(P));
   write_ply(folder.path("cloud/registered.ply"), fused.cloud);
   write_json(folder.path("mesh/mesh.json"),
              {{"method", "tsdf"},
@@ -722,91 +712,16 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
   }
   summary.stage_seconds.emplace_back("mesh", seconds_since(t0));
 
+  // ---- export e57: one scan per verified view (the views the mesh fused), at its pose
+  write_views_e57(folder, rgbd_e57_views(sequence, poses, P), {"alignment/trajectory.txt"},
+                  json{{"views", "verified"}, {"points", "depth in the camera frame"},
+                       {"voxel_m", P.cloud_voxel_m}}.dump(),
+                  summary);
+
   run_coverage_stage(folder, sequence, result, poses, P, summary, note);
 
-  // ---- measurements against the reference (tape) values
-  if (!refs.empty()) {
-    t0 = Clock::now();
-    const CaseModel model = CaseModel::load(folder);
-    SnapOptions so;
-    so.search_radius_m = P.snap_radius_m;
-    auto progress = begin("measure", refs.size());
-    std::vector<TableRow> rows;
-    for (std::size_t i = 0; i < refs.size(); ++i) {
-      try {
-        auto one = compare_with_reference(model, {refs[i]}, so);
-        rows.push_back(std::move(one[0]));
-      } catch (const InputError& e) {
-        // A reference point the scan did not cover: reported, not fatal for the case.
-        TableRow row;
-        row.name = refs[i].name;
-        row.real_m = refs[i].true_distance_m;
-        row.not_measured = e.what();
-        note(fmt::format("warning: {}", e.what()));
-        rows.push_back(std::move(row));
-      }
-      if (progress) progress(i + 1, refs.size());
-    }
-    end("measure");
-    {
-      std::ifstream in(reference, std::ios::binary);
-      std::stringstream ss;
-      ss << in.rdbuf();
-      write_text(folder.path("measurements/reference.json"), ss.str());
-    }
-    write_measurement_table(folder, rows);
-    summary.measurements = rows.size();
-    for (const TableRow& r : rows) summary.measurements_within += r.within_uncertainty;
-    for (const TableRow& r : rows) summary.measurements_not_measured += !r.not_measured.empty();
-    for (const TableRow& r : rows)
-      summary.measurements_not_snapped += r.not_measured.empty() && !r.ends_snapped;
-    LogStep s;
-    s.step = "measure reference";
-    s.parameters_json = json{{"reference", fs::absolute(reference).string()},
-                             {"snap_radius_m", so.search_radius_m},
-                             {"coverage_factor", so.coverage_factor}}.dump();
-    s.duration_s = seconds_since(t0);
-    s.inputs = {fs::absolute(reference), "mesh/mesh.ply", "alignment/pose_covariance.json"};
-    s.outputs = {"measurements/reference.json", "measurements/table.json", "measurements/table.csv"};
-    folder.append_log_step(s);
-    summary.stage_seconds.emplace_back("measure", seconds_since(t0));
-  }
-
-  // ---- report
-  t0 = Clock::now();
-  begin("report", 0);
-  ReportOptions ro;
-  ro.title = case_json["title"].get<std::string>();
-  ro.render_width = P.render_width;
-  ro.render_height = P.render_height;
-  ro.pdf = P.pdf;
-  ro.paper = P.paper;
-  const ReportResult report = write_case_report(folder, ro);
-  end("report");
-  if (!report.pdf_note.empty()) note(report.pdf_note);
-  {
-    LogStep s;
-    s.step = "report";
-    s.parameters_json = json{{"pdf", P.pdf}, {"render_size", {P.render_width, P.render_height}},
-                             {"pdf_note", report.pdf_note}}.dump();
-    s.duration_s = seconds_since(t0);
-    s.outputs = {"report/report.html"};
-    if (report.pdf) s.outputs.push_back("report/report.pdf");
-    folder.append_log_step(s);
-  }
-  summary.stage_seconds.emplace_back("report", seconds_since(t0));
-  summary.report_html = report.html;
-  summary.report_pdf = report.pdf;
-}
-
-// The bracket around the stages: "begin" before anything else (a case killed at any point
-// after it reads as incomplete), "failed" with the error when a stage throws, "complete" last.
-void log_phase(CaseFolder& folder, StepPhase phase, json parameters) {
-  LogStep s;
-  s.step = "reconstruct";
-  s.phase = phase;
-  s.parameters_json = parameters.dump();
-  folder.append_log_step(s);
+  run_measure_stage(folder, reference, refs, P, StageHooks{cb}, summary);
+  run_report_stage(folder, case_json["title"].get<std::string>(), P, StageHooks{cb}, summary);
 }
 
 }  // namespace
@@ -814,31 +729,17 @@ void log_phase(CaseFolder& folder, StepPhase phase, json parameters) {
 ReconstructSummary reconstruct_case(const fs::path& input, const fs::path& case_dir,
                                     const ReconstructParameters& P, bool force,
                                     const StageCallbacks& cb) {
-  const auto start = Clock::now();
+  // Range scans (a .conf, a folder of scans, an E57 of several scans) take their own ingest,
+  // alignment and surface stages, then the shared ones.
+  if (fs::exists(input))
+    if (const std::optional<RangeScanSet> scans = find_range_scans(input))
+      return reconstruct_scan_case(*scans, case_dir, P, force, cb);
   const ReconstructPlan plan = plan_reconstruct(input, P);
-  CaseFolder folder = CaseFolder::create(case_dir, force);
-  log_phase(folder, StepPhase::Begin,
-            {{"input", plan.input_root.string()}, {"software_version", software_version()}});
-  ReconstructSummary summary;
-  summary.case_dir = case_dir;
-  summary.frames = plan.sequence.frames.size();
-  try {
-    run_stages(folder, plan, P, cb, summary);
-  } catch (const std::exception& e) {
-    try {
-      log_phase(folder, StepPhase::Failed, {{"error", e.what()}});
-    } catch (const std::exception&) {
-      // The log cannot take the failure (a full disk): the case still reads as incomplete.
-    }
-    throw;
-  }
-  summary.seconds = seconds_since(start);
-  log_phase(folder, StepPhase::Complete,
-            {{"seconds", summary.seconds},
-             {"registered", summary.registered},
-             {"verified", summary.verified},
-             {"enough_verified", summary.enough_verified}});
-  return summary;
+  return run_bracketed(plan.input_root, case_dir, force,
+                       [&](CaseFolder& folder, ReconstructSummary& summary) {
+                         summary.frames = plan.sequence.frames.size();
+                         run_stages(folder, plan, P, cb, summary);
+                       });
 }
 
 }  // namespace locard::forensics

@@ -5,6 +5,8 @@
 // give the same model bit for bit; markers and trajectories join the case through the log.
 #include <locard/forensics/case_folder.hpp>
 #include <locard/forensics/integrity.hpp>
+#include <locard/io/e57.hpp>
+#include <locard/io/trajectory_io.hpp>
 #include <locard/viewer/viewer_server.hpp>
 
 #include <gtest/gtest.h>
@@ -163,8 +165,26 @@ TEST_F(ReconstructCli, WritesTheDocumentedLayout) {
                     (j.contains("phase") ? " " + j["phase"].get<std::string>() : ""));
   }
   EXPECT_EQ(steps, (std::vector<std::string>{"reconstruct begin", "ingest", "align", "mesh",
-                                             "coverage", "measure reference", "report",
-                                             "reconstruct complete"}));
+                                             "export e57", "coverage", "measure reference",
+                                             "report", "reconstruct complete"}));
+}
+
+// The case's registered views as E57: one scan per verified view (the trajectory's views), its
+// points from depth in the camera frame, its pose the view's registered pose.
+TEST_F(ReconstructCli, TheE57ExportHasOneScanPerVerifiedViewAtItsPose) {
+  const E57File e57 = read_e57(case_dir() / "cloud" / "registered.e57");
+  const Trajectory t = read_tum_trajectory(case_dir() / "alignment" / "trajectory.txt");
+  ASSERT_FALSE(t.empty());
+  ASSERT_EQ(e57.scans.size(), t.size());
+  for (std::size_t k = 0; k < t.size(); ++k) {
+    EXPECT_EQ(e57.scans[k].name.rfind("frame ", 0), 0u) << e57.scans[k].name;
+    EXPECT_TRUE(e57.scans[k].has_pose);
+    EXPECT_LT(translation_difference_m(e57.scans[k].T_file_scan, t[k].T_world_camera), 1e-5);
+    EXPECT_LT(rotation_difference_deg(e57.scans[k].T_file_scan, t[k].T_world_camera), 1e-3);
+    // Camera frame: every point in front of the camera, within the depth range.
+    ASSERT_GT(e57.scans[k].cloud.size(), 100u);
+    for (const Eigen::Vector3f& p : e57.scans[k].cloud.positions) ASSERT_GT(p.z(), 0.1f);
+  }
 }
 
 TEST_F(ReconstructCli, VerifyPassesThenNamesAChangedMeshOrInput) {

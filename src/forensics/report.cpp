@@ -495,8 +495,9 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
                      a.value("loop_closures", 0));
   }
   if (const json mj = read_json_or_null(root / "mesh" / "mesh.json"); !mj.is_null())
-    h += fmt::format("<tr><th>model</th><td>TSDF mesh, voxel {} mm: {} vertices, {} triangles; "
+    h += fmt::format("<tr><th>model</th><td>{} mesh, voxel {} mm: {} vertices, {} triangles; "
                      "registered cloud {} points</td></tr>",
+                     mj.value("method", "tsdf") == "poisson" ? "Poisson" : "TSDF",
                      mm(mj.value("voxel_size", 0.0), 1), mj.value("vertices", 0),
                      mj.value("triangles", 0), mj.value("cloud_points", 0));
   h += "</table>\n";

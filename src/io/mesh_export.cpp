@@ -1,12 +1,15 @@
-// Mesh export to PLY, OBJ + MTL, glTF 2.0 / GLB (own writer) and FBX (assimp), and the
-// assimp-based reader used to check every export. See mesh_export.hpp for the conventions.
+// Mesh export to PLY and glTF 2.0 / GLB (own writer), the helpers every writer shares
+// (mesh_export_detail.hpp), and the assimp-based reader the tests use. OBJ is in
+// obj_writer.cpp, FBX in fbx_writer.cpp. See mesh_export.hpp for the conventions.
+#include "mesh_export_detail.hpp"
+
 #include <locard/core/atomic_file.hpp>
 #include <locard/core/error.hpp>
 #include <locard/io/mesh_export.hpp>
 #include <locard/io/ply.hpp>
 
-#include <assimp/Exporter.hpp>
 #include <assimp/Importer.hpp>
+#include <assimp/config.h>
 #include <assimp/postprocess.h>
 #include <assimp/scene.h>
 #include <fmt/format.h>
@@ -17,26 +20,20 @@
 #include <cctype>
 #include <cmath>
 #include <cstring>
-#include <fstream>
-#include <iterator>
 #include <limits>
-#include <memory>
 #include <string>
 
 namespace locard {
+
+namespace detail {
+
 namespace {
-
-namespace fs = std::filesystem;
-
 constexpr Rgb8 kInferredColor{255, 0, 255};
 constexpr Rgb8 kDefaultColor{200, 200, 200};
+}  // namespace
 
-// z-up (Locard) -> y-up (OBJ, glTF, FBX): (x, y, z) -> (x, z, -y).
-Eigen::Vector3f to_y_up(const Eigen::Vector3f& p) { return {p.x(), p.z(), -p.y()}; }
-Eigen::Vector3f from_y_up(const Eigen::Vector3f& p) { return {p.x(), -p.z(), p.y()}; }
-
-void check_flags(const TriangleMesh& mesh, const MeshExportOptions& options,
-                 const fs::path& path) {
+void check_mesh_for_export(const TriangleMesh& mesh, const MeshExportOptions& options,
+                           const std::filesystem::path& path) {
   if (!options.inferred_triangles.empty() &&
       options.inferred_triangles.size() != mesh.triangles.size())
     throw_input_error(path, fmt::format("{} inferred-triangle flags for {} triangles",
@@ -52,8 +49,6 @@ void check_flags(const TriangleMesh& mesh, const MeshExportOptions& options,
                                             mesh.vertices.size()));
 }
 
-// The colours to write: the mesh's own (grey when it has none), inferred vertices magenta
-// when asked.
 std::vector<Rgb8> export_colors(const TriangleMesh& mesh, const MeshExportOptions& options) {
   std::vector<Rgb8> colors = mesh.vertex_colors.empty()
                                  ? std::vector<Rgb8>(mesh.vertices.size(), kDefaultColor)
@@ -65,9 +60,18 @@ std::vector<Rgb8> export_colors(const TriangleMesh& mesh, const MeshExportOption
   return colors;
 }
 
-bool is_inferred(const MeshExportOptions& options, std::size_t t) {
-  return !options.inferred_triangles.empty() && options.inferred_triangles[t];
+bool any_inferred(const MeshExportOptions& options) {
+  return std::find(options.inferred_triangles.begin(), options.inferred_triangles.end(), 1) !=
+         options.inferred_triangles.end();
 }
+
+}  // namespace detail
+
+namespace {
+
+namespace fs = std::filesystem;
+using detail::export_colors;
+using detail::is_inferred;
 
 std::string lower_extension(const fs::path& path) {
   std::string ext = path.extension().string();
@@ -115,7 +119,7 @@ std::pair<nlohmann::json, std::vector<std::uint8_t>> build_gltf(const TriangleMe
   Eigen::Vector3f lo = Eigen::Vector3f::Constant(std::numeric_limits<float>::infinity());
   Eigen::Vector3f hi = -lo;
   for (const auto& v : mesh.vertices) {
-    const Eigen::Vector3f p = to_y_up(v);
+    const Eigen::Vector3f p = detail::to_file_axes(v, UpAxis::Y);  // glTF: y-up
     positions.insert(positions.end(), {p.x(), p.y(), p.z()});
     lo = lo.cwiseMin(p);
     hi = hi.cwiseMax(p);
@@ -183,75 +187,6 @@ std::pair<nlohmann::json, std::vector<std::uint8_t>> build_gltf(const TriangleMe
   return {gltf, bin};
 }
 
-// --- assimp scene for FBX ---------------------------------------------------------------------
-
-std::unique_ptr<aiScene> build_assimp_scene(const TriangleMesh& mesh,
-                                            const MeshExportOptions& options) {
-  auto scene = std::make_unique<aiScene>();
-  scene->mRootNode = new aiNode("locard");
-  const std::vector<Rgb8> colors = export_colors(mesh, options);
-  std::vector<std::vector<std::size_t>> groups(2);
-  for (std::size_t t = 0; t < mesh.triangles.size(); ++t)
-    groups[is_inferred(options, t) ? 1 : 0].push_back(t);
-  const unsigned mesh_count = groups[1].empty() ? 1u : 2u;
-
-  scene->mNumMaterials = 2;
-  scene->mMaterials = new aiMaterial*[2];
-  for (int m = 0; m < 2; ++m) {
-    auto* material = new aiMaterial();
-    const aiString name(m == 0 ? "observed" : "inferred");
-    material->AddProperty(&name, AI_MATKEY_NAME);
-    const aiColor3D diffuse = m == 0 ? aiColor3D(1.f, 1.f, 1.f) : aiColor3D(1.f, 0.f, 1.f);
-    material->AddProperty(&diffuse, 1, AI_MATKEY_COLOR_DIFFUSE);
-    scene->mMaterials[m] = material;
-  }
-  scene->mNumMeshes = mesh_count;
-  scene->mMeshes = new aiMesh*[mesh_count];
-  scene->mRootNode->mNumMeshes = mesh_count;
-  scene->mRootNode->mMeshes = new unsigned[mesh_count];
-  for (unsigned m = 0; m < mesh_count; ++m) {
-    // Each group gets its own compact vertex list (observed first: all vertices, in order,
-    // so a mesh without inferred triangles keeps its vertex order exactly).
-    std::vector<std::uint32_t> local(mesh.vertices.size(), std::numeric_limits<std::uint32_t>::max());
-    std::vector<std::uint32_t> order;
-    if (m == 0) {
-      order.resize(mesh.vertices.size());
-      for (std::uint32_t v = 0; v < order.size(); ++v) order[v] = local[v] = v;
-    } else {
-      for (std::size_t t : groups[m])
-        for (std::uint32_t v : mesh.triangles[t])
-          if (local[v] == std::numeric_limits<std::uint32_t>::max()) {
-            local[v] = static_cast<std::uint32_t>(order.size());
-            order.push_back(v);
-          }
-    }
-    auto* out = new aiMesh();
-    out->mName = aiString(m == 0 ? "observed" : "inferred");
-    out->mMaterialIndex = m;
-    out->mPrimitiveTypes = groups[m].empty() ? aiPrimitiveType_POINT : aiPrimitiveType_TRIANGLE;
-    out->mNumVertices = static_cast<unsigned>(order.size());
-    out->mVertices = new aiVector3D[order.size()];
-    out->mColors[0] = new aiColor4D[order.size()];
-    for (std::size_t i = 0; i < order.size(); ++i) {
-      const Eigen::Vector3f p = to_y_up(mesh.vertices[order[i]]);
-      out->mVertices[i] = aiVector3D(p.x(), p.y(), p.z());
-      const Rgb8 c = colors[order[i]];
-      out->mColors[0][i] = aiColor4D(c.r / 255.f, c.g / 255.f, c.b / 255.f, 1.f);
-    }
-    out->mNumFaces = static_cast<unsigned>(groups[m].size());
-    out->mFaces = new aiFace[groups[m].size()];
-    for (std::size_t f = 0; f < groups[m].size(); ++f) {
-      aiFace& face = out->mFaces[f];
-      face.mNumIndices = 3;
-      face.mIndices = new unsigned[3];
-      for (int j = 0; j < 3; ++j) face.mIndices[j] = local[mesh.triangles[groups[m][f]][j]];
-    }
-    scene->mMeshes[m] = out;
-    scene->mRootNode->mMeshes[m] = m;
-  }
-  return scene;
-}
-
 }  // namespace
 
 std::string_view to_string(MeshFormat format) {
@@ -272,65 +207,22 @@ std::optional<MeshFormat> parse_mesh_format(std::string_view name) {
   return std::nullopt;
 }
 
+std::string_view to_string(UpAxis up) { return up == UpAxis::Z ? "z" : "y"; }
+
+std::optional<UpAxis> parse_up_axis(std::string_view name) {
+  if (name == "z") return UpAxis::Z;
+  if (name == "y") return UpAxis::Y;
+  return std::nullopt;
+}
+
 std::optional<MeshFormat> mesh_format_from_path(const fs::path& path) {
   const std::string ext = lower_extension(path);
   if (ext.size() < 2) return std::nullopt;
   return parse_mesh_format(std::string_view(ext).substr(1));
 }
 
-void write_obj(const fs::path& path, const TriangleMesh& mesh, const MeshExportOptions& options) {
-  check_flags(mesh, options, path);
-  const std::vector<Rgb8> colors = export_colors(mesh, options);
-  fs::path mtl_path = path;
-  mtl_path.replace_extension(".mtl");
-  {
-    AtomicFile mtl(mtl_path, false);
-    mtl.stream() << "# Locard materials: vertex colours carry the surface colour\n"
-                    "newmtl observed\nKa 0 0 0\nKd 1 1 1\nKs 0 0 0\nd 1\nillum 1\n\n"
-                    "newmtl inferred\nKa 0 0 0\nKd 1 0 1\nKs 0 0 0\nd 1\nillum 1\n";
-    mtl.commit();
-  }
-  AtomicFile file(path, false);
-  std::ofstream& out = file.stream();
-  std::string buffer;
-  buffer.reserve(1 << 20);
-  auto flush = [&] {
-    out.write(buffer.data(), static_cast<std::streamsize>(buffer.size()));
-    buffer.clear();
-  };
-  fmt::format_to(std::back_inserter(buffer),
-                 "# Locard {} mesh: {} vertices, {} triangles; metres, y-up (Locard z-up turned "
-                 "-90 degrees about x); vertex colours as v x y z r g b\nmtllib {}\no locard_mesh\n",
-                 LOCARD_VERSION, mesh.vertices.size(), mesh.triangles.size(),
-                 mtl_path.filename().string());
-  for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
-    const Eigen::Vector3f p = to_y_up(mesh.vertices[i]);
-    const Rgb8 c = colors[i];
-    fmt::format_to(std::back_inserter(buffer), "v {} {} {} {} {} {}\n", p.x(), p.y(), p.z(),
-                   c.r / 255.f, c.g / 255.f, c.b / 255.f);
-    if (buffer.size() > (1 << 20) - 256) flush();
-  }
-  for (int inferred = 0; inferred < 2; ++inferred) {
-    bool header = false;
-    for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-      if (is_inferred(options, t) != (inferred == 1)) continue;
-      if (!header) {
-        fmt::format_to(std::back_inserter(buffer), "g {}\nusemtl {}\n",
-                       inferred ? "inferred" : "observed", inferred ? "inferred" : "observed");
-        header = true;
-      }
-      const auto& tri = mesh.triangles[t];
-      fmt::format_to(std::back_inserter(buffer), "f {} {} {}\n", tri[0] + 1, tri[1] + 1,
-                     tri[2] + 1);
-      if (buffer.size() > (1 << 20) - 256) flush();
-    }
-  }
-  flush();
-  file.commit();
-}
-
 void write_gltf(const fs::path& path, const TriangleMesh& mesh, const MeshExportOptions& options) {
-  check_flags(mesh, options, path);
+  detail::check_mesh_for_export(mesh, options, path);
   if (mesh.vertices.empty()) throw_input_error(path, "the mesh has no vertices to export");
   auto [gltf, bin] = build_gltf(mesh, options);
   AtomicFile file(path, true);
@@ -356,39 +248,14 @@ void write_gltf(const fs::path& path, const TriangleMesh& mesh, const MeshExport
   file.commit();
 }
 
-void write_fbx(const fs::path& path, const TriangleMesh& mesh, const MeshExportOptions& options) {
-  check_flags(mesh, options, path);
-  if (mesh.vertices.empty()) throw_input_error(path, "the mesh has no vertices to export");
-  const std::unique_ptr<aiScene> scene = build_assimp_scene(mesh, options);
-  // assimp's FBX writer seeks back to patch block offsets, which its in-memory blob stream
-  // does not support: it writes a scratch file beside the target, copied through AtomicFile.
-  const fs::path scratch = fs::path(path.string() + ".assimp-tmp");
-  Assimp::Exporter exporter;
-  if (exporter.Export(scene.get(), options.fbx_ascii ? "fbxa" : "fbx", scratch.string()) !=
-      aiReturn_SUCCESS) {
-    std::error_code ignored;
-    fs::remove(scratch, ignored);
-    throw Error(path.string() + ": assimp could not write FBX: " + exporter.GetErrorString());
-  }
-  std::string bytes;
-  {
-    std::ifstream in(scratch, std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
-  std::error_code ignored;
-  fs::remove(scratch, ignored);
-  AtomicFile file(path, true);
-  file.stream().write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  file.commit();
-}
-
-void write_mesh(const fs::path& path, const TriangleMesh& mesh, const MeshExportOptions& options) {
+std::vector<fs::path> write_mesh(const fs::path& path, const TriangleMesh& mesh,
+                                const MeshExportOptions& options) {
   const auto format = mesh_format_from_path(path);
   if (!format)
     throw_input_error(path, "unknown mesh format; use .ply, .obj, .glb, .gltf or .fbx");
   switch (*format) {
     case MeshFormat::Ply: {
-      check_flags(mesh, options, path);
+      detail::check_mesh_for_export(mesh, options, path);
       if (options.show_inferred && !options.inferred_triangles.empty()) {
         TriangleMesh shown = mesh;
         shown.vertex_colors = export_colors(mesh, options);
@@ -396,25 +263,45 @@ void write_mesh(const fs::path& path, const TriangleMesh& mesh, const MeshExport
       } else {
         write_ply(path, mesh);
       }
-      return;
+      return {path};
     }
-    case MeshFormat::Obj: write_obj(path, mesh, options); return;
+    case MeshFormat::Obj: return write_obj(path, mesh, options);
     case MeshFormat::Gltf:
-    case MeshFormat::Glb: write_gltf(path, mesh, options); return;
-    case MeshFormat::Fbx: write_fbx(path, mesh, options); return;
+    case MeshFormat::Glb: write_gltf(path, mesh, options); return {path};
+    case MeshFormat::Fbx: write_fbx(path, mesh, options); return {path};
   }
+  return {};
 }
 
-TriangleMesh read_mesh_assimp(const fs::path& path) {
+namespace {
+
+// The file's axes: glTF is y-up by specification, OBJ and FBX as written, PLY z-up.
+UpAxis file_up_axis(const fs::path& path, UpAxis written) {
+  const auto format = mesh_format_from_path(path);
+  if (!format || *format == MeshFormat::Ply) return UpAxis::Z;
+  if (*format == MeshFormat::Gltf || *format == MeshFormat::Glb) return UpAxis::Y;
+  return written;
+}
+
+std::uint8_t unit_to_byte(float x) {
+  return static_cast<std::uint8_t>(std::lround(std::clamp(x, 0.f, 1.f) * 255.f));
+}
+
+}  // namespace
+
+TriangleMesh read_mesh_assimp(const fs::path& path, UpAxis up) {
   if (!fs::exists(path)) throw_input_error(path, "no such file");
   Assimp::Importer importer;
+  // Texture coordinates and normals would split vertices at every corner (the OBJ's atlas
+  // gives each triangle its own); drop them so identical positions and colours join again.
+  importer.SetPropertyInteger(AI_CONFIG_PP_RVC_FLAGS, aiComponent_TEXCOORDS | aiComponent_NORMALS |
+                                                          aiComponent_TANGENTS_AND_BITANGENTS);
   const aiScene* scene = importer.ReadFile(
-      path.string(), aiProcess_Triangulate | aiProcess_JoinIdenticalVertices |
-                         aiProcess_PreTransformVertices);
+      path.string(), aiProcess_RemoveComponent | aiProcess_Triangulate |
+                         aiProcess_JoinIdenticalVertices | aiProcess_PreTransformVertices);
   if (!scene) throw_input_error(path, std::string("assimp cannot read it: ") +
                                           importer.GetErrorString());
-  const auto format = mesh_format_from_path(path);
-  const bool y_up = format && *format != MeshFormat::Ply;
+  const UpAxis file_up = file_up_axis(path, up);
   TriangleMesh mesh;
   bool colors = true;
   for (unsigned m = 0; m < scene->mNumMeshes; ++m) colors &= scene->mMeshes[m]->HasVertexColors(0);
@@ -423,13 +310,10 @@ TriangleMesh read_mesh_assimp(const fs::path& path) {
     const auto base = static_cast<std::uint32_t>(mesh.vertices.size());
     for (unsigned i = 0; i < in->mNumVertices; ++i) {
       const Eigen::Vector3f p(in->mVertices[i].x, in->mVertices[i].y, in->mVertices[i].z);
-      mesh.vertices.push_back(y_up ? from_y_up(p) : p);
+      mesh.vertices.push_back(detail::from_file_axes(p, file_up));
       if (colors) {
         const aiColor4D& c = in->mColors[0][i];
-        auto u8 = [](float x) {
-          return static_cast<std::uint8_t>(std::lround(std::clamp(x, 0.f, 1.f) * 255.f));
-        };
-        mesh.vertex_colors.push_back({u8(c.r), u8(c.g), u8(c.b)});
+        mesh.vertex_colors.push_back({unit_to_byte(c.r), unit_to_byte(c.g), unit_to_byte(c.b)});
       }
     }
     for (unsigned f = 0; f < in->mNumFaces; ++f) {

@@ -1,9 +1,11 @@
 #include <locard/core/error.hpp>
 #include <locard/io/mesh_export.hpp>
+#include <locard/io/image_io.hpp>
 #include <locard/io/ply.hpp>
 
 #include "test_support.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -68,30 +70,59 @@ void expect_same_mesh(const TriangleMesh& expected, const TriangleMesh& actual) 
   EXPECT_EQ(a, b) << "triangles or their winding changed";
 }
 
-class MeshExportRoundTrip : public ::testing::TestWithParam<const char*> {};
+// Every format read back by assimp (an independent reader: our FBX and OBJ writers share no
+// code with it), for both up axes where the format has a choice.
+class MeshExportRoundTrip
+    : public ::testing::TestWithParam<std::tuple<const char*, UpAxis>> {};
 
 TEST_P(MeshExportRoundTrip, AssimpReadsBackVerticesColoursAndTriangles) {
+  const auto [extension, up] = GetParam();
   const TriangleMesh mesh = coloured_grid();
-  const auto path = test::scratch_dir() / (std::string("grid.") + GetParam());
+  const auto path = test::scratch_dir() / (std::string("grid.") + extension);
   MeshExportOptions options;
-  options.fbx_ascii = true;  // assimp 5.2.5 cannot read back its own binary FBX (see header)
+  options.up = up;
   write_mesh(path, mesh, options);
   ASSERT_TRUE(std::filesystem::exists(path));
-  expect_same_mesh(mesh, read_mesh_assimp(path));
-}
-
-TEST(MeshExport, BinaryFbxHasTheFbxHeaderAndLeavesNoScratchFile) {
-  const auto dir = test::scratch_dir();
-  write_mesh(dir / "grid.fbx", coloured_grid());
-  std::ifstream in(dir / "grid.fbx", std::ios::binary);
-  std::string magic(20, '\0');
-  in.read(magic.data(), 20);
-  EXPECT_EQ(magic, "Kaydara FBX Binary  ");
-  EXPECT_EQ(test::list_folder(dir), "grid.fbx\n");
+  expect_same_mesh(mesh, read_mesh_assimp(path, up));
 }
 
 INSTANTIATE_TEST_SUITE_P(Formats, MeshExportRoundTrip,
-                         ::testing::Values("ply", "obj", "glb", "gltf", "fbx"));
+                         ::testing::Combine(::testing::Values("ply", "obj", "glb", "gltf", "fbx"),
+                                            ::testing::Values(UpAxis::Y, UpAxis::Z)));
+
+// The up axis turns OBJ and FBX only: read back as if z-up (no turn undone), a y-up OBJ or FBX
+// has Locard's z as its y. glTF is read back from its fixed y-up, PLY is Locard's frame.
+TEST(MeshExport, UpAxisTurnsObjAndFbxOnly) {
+  const TriangleMesh mesh = coloured_grid();  // z in [1, 1.15], y in [3, 3.4]
+  const auto dir = test::scratch_dir();
+  for (const char* ext : {"obj", "fbx", "glb", "ply"})
+    for (UpAxis up : {UpAxis::Y, UpAxis::Z}) {
+      MeshExportOptions options;
+      options.up = up;
+      const auto path = dir / fmt::format("m_{}.{}", to_string(up), ext);
+      write_mesh(path, mesh, options);
+      const TriangleMesh raw = read_mesh_assimp(path, UpAxis::Z);  // file axes as they are
+      float max_y = -1e9f;
+      for (const auto& v : raw.vertices) max_y = std::max(max_y, v.y());
+      const std::string e = ext;
+      const bool turned = (e == "obj" || e == "fbx") && up == UpAxis::Y;
+      EXPECT_NEAR(max_y, turned ? 1.15f : 3.4f, 1e-5f) << path;
+    }
+}
+
+TEST(MeshExport, ObjListsItsMaterialAndTextureFiles) {
+  const auto dir = test::scratch_dir();
+  const auto written = write_mesh(dir / "grid.obj", coloured_grid());
+  ASSERT_EQ(written.size(), 3u);
+  EXPECT_EQ(written[1].filename(), "grid.mtl");
+  EXPECT_EQ(written[2].filename(), "grid.png");
+  EXPECT_EQ(test::list_folder(dir), "grid.mtl\ngrid.obj\ngrid.png\n");  // no temporary left
+  std::ifstream mtl(dir / "grid.mtl");
+  const std::string text((std::istreambuf_iterator<char>(mtl)), {});
+  EXPECT_NE(text.find("map_Kd grid.png"), std::string::npos);
+  const ColorImage texture = read_color_image(dir / "grid.png");
+  EXPECT_EQ(texture.width() % 5, 0);  // whole atlas cells
+}
 
 TEST(MeshExport, PlyRoundTripsThroughOwnReader) {
   const TriangleMesh mesh = coloured_grid();
@@ -129,7 +160,8 @@ TEST(MeshExport, InferredTrianglesGetTheirOwnMaterialAndOptionalColour) {
   const auto dir = test::scratch_dir();
   write_mesh(dir / "m.glb", mesh, options);
   write_mesh(dir / "m.obj", mesh, options);
-  for (const char* name : {"m.glb", "m.obj"}) {
+  write_mesh(dir / "m.fbx", mesh, options);
+  for (const char* name : {"m.glb", "m.obj", "m.fbx"}) {
     const TriangleMesh back = read_mesh_assimp(dir / name);
     EXPECT_EQ(back.triangle_count(), mesh.triangle_count()) << name;
     std::size_t magenta = 0;

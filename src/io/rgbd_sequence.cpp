@@ -34,6 +34,17 @@ bool contains_conf_file(const fs::path& folder) {
   return false;
 }
 
+// PLY / PCD files directly in the folder (a set of range scans when there are two or more).
+std::size_t count_scan_files(const fs::path& folder) {
+  std::error_code ec;
+  std::size_t n = 0;
+  for (const auto& entry : fs::directory_iterator(folder, ec)) {
+    const std::string ext = io_detail::lower_extension(entry.path());
+    n += entry.is_regular_file(ec) && (ext == ".ply" || ext == ".pcd");
+  }
+  return n;
+}
+
 std::string frame_label(std::size_t i) { return " (frame " + std::to_string(i) + ")"; }
 
 // Reads one image, adding the frame number to any error so the investigator can find it.
@@ -97,6 +108,7 @@ std::string_view to_string(DatasetFormat format) {
     case DatasetFormat::PcdCloud: return "PCD point cloud";
     case DatasetFormat::E57Cloud: return "E57 point cloud";
     case DatasetFormat::StanfordConf: return "Stanford .conf";
+    case DatasetFormat::RangeScanFolder: return "folder of range scans";
     case DatasetFormat::Unknown: break;
   }
   return "unknown";
@@ -139,6 +151,7 @@ DatasetFormat detect_format(const fs::path& path) {
   if (fs::is_directory(path / "color", ec) && fs::is_directory(path / "depth", ec))
     return DatasetFormat::Redwood;
   if (contains_conf_file(path)) return DatasetFormat::StanfordConf;
+  if (count_scan_files(path) >= 2) return DatasetFormat::RangeScanFolder;
   return DatasetFormat::Unknown;
 }
 
@@ -153,6 +166,7 @@ RgbdSequence open_rgbd_sequence(const fs::path& path, const SequenceOptions& opt
     case DatasetFormat::PcdCloud:
     case DatasetFormat::E57Cloud:
     case DatasetFormat::StanfordConf:
+    case DatasetFormat::RangeScanFolder:
       throw_input_error(path, "is a point-cloud input (" + std::string(to_string(format)) +
                                   "), not an RGB-D sequence");
     case DatasetFormat::Unknown: break;

@@ -30,6 +30,9 @@ TEST(RgbdSequenceFormat, DetectsCloudAndConfInputs) {
   EXPECT_EQ(detect_format(dir / "scan.pcd"), DatasetFormat::PcdCloud);
   EXPECT_EQ(detect_format(dir / "notes.txt"), DatasetFormat::Unknown);
   EXPECT_EQ(detect_format(dir / "missing"), DatasetFormat::Unknown);
+  // Two scans (PLY / PCD) and nothing RGB-D: a set of range scans; one alone is not.
+  EXPECT_EQ(detect_format(dir), DatasetFormat::RangeScanFolder);
+  fs::remove(dir / "scan.pcd");
   EXPECT_EQ(detect_format(dir), DatasetFormat::Unknown);
 
   const fs::path bunny = test::shared_data() / "stanford-bunny" / "bunny" / "data";

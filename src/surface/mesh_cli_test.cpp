@@ -35,7 +35,7 @@ TEST_F(MeshCli, FusesExportsAndEvaluates) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("ground truth"), std::string::npos) << r.output;
   EXPECT_EQ(test::list_folder(out),
-            "cloud.ply\nmesh.fbx\nmesh.glb\nmesh.json\nmesh.mtl\nmesh.obj\nmesh.ply\n");
+            "cloud.ply\nmesh.fbx\nmesh.glb\nmesh.json\nmesh.mtl\nmesh.obj\nmesh.ply\nmesh.png\n");
   const TriangleMesh ply = read_ply_mesh(out / "mesh.ply");
   EXPECT_GT(ply.triangle_count(), 5000u);
   EXPECT_EQ(ply.vertex_colors.size(), ply.vertex_count());

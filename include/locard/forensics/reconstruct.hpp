@@ -2,11 +2,14 @@
 // `locard reconstruct INPUT -o CASE_DIR`: the whole pipeline in one call, into a case folder
 // (docs/case-format.md):
 //   ingest     hash every input file (sequence images, index files, intrinsics, ground truth)
-//   align      sequential registration + loop closure + pose graph (sequential_alignment.hpp)
+//   align      sequential registration + loop closure + pose graph (sequential_alignment.hpp);
+//              for range scans, multiway registration (scan_alignment.hpp) and a screened
+//              Poisson surface trimmed by point density (docs/laser-scans.md)
 //              -> alignment/trajectory.txt, pose_graph.json, pose_covariance.json,
 //                 stage_report.json/.svg
 //   mesh       TSDF fusion at the final poses, small pieces removed -> mesh/mesh.{ply,glb,obj,
 //              fbx}, mesh.json; the registered cloud -> cloud/registered.ply
+//   export e57 the registered views, one E57 scan each with its pose -> cloud/registered.e57
 //   measure    the reference file (INPUT/measurements.json when the scan has one, or
 //              --reference) -> measurements/table.json, table.csv
 //   report     rendered views, plots and tables -> report/report.html (+ report.pdf)
@@ -48,11 +51,17 @@ struct ReconstructParameters {
   double loop_max_distance_m = 1.0;
   double loop_min_fitness = 0.3;
   std::uint64_t seed = 0;
+  // Range scans (a .conf, a folder of scans, an E57 of several; docs/laser-scans.md):
+  // "input": start from the poses the input gives (feature registration for scans without
+  // one); "global": ignore them, feature registration for every pair.
+  std::string scan_poses = "input";
+  double scan_voxel_m = 0.0;  // surface sampling; 0: twice the scans' median point spacing
   // Surface
   double mesh_voxel_m = 0.01;
   double truncation_m = 0.0;  // 0: 4 voxels
   std::size_t min_component = 500;
   std::string formats = "ply,glb,obj,fbx";
+  std::string up = "y";  // the up axis of the OBJ and FBX exports: y or z (mesh_export.hpp)
   double cloud_voxel_m = 0.005;
   // Gauge: "auto" (ground truth of the first view when known), "first-camera"
   std::string world_frame = "auto";

@@ -32,6 +32,7 @@ enum class DatasetFormat {
   PcdCloud,      // a single .pcd file
   E57Cloud,      // a single .e57 file (one or more laser scans)
   StanfordConf,  // a Stanford .conf alignment file (or a folder holding one)
+  RangeScanFolder,  // a folder of two or more .ply / .pcd range scans (io/range_scans.hpp)
 };
 
 std::string_view to_string(DatasetFormat format);
