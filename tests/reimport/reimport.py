@@ -353,6 +353,43 @@ def cloudcompare(args, reference):
                  len(xyz), worst, mean, "" if reference.analytic else " (against the nearest vertex)"))
 
 
+def cloudcompare_e57(args):
+    """A laser scan read from E57 by Locard and written as PLY: CloudCompare opens it with every
+    point, its colour and its intensity (the pump-room scan of docs/e57.md)."""
+    env = dict(os.environ, QT_QPA_PLATFORM="offscreen")
+    tool = args.tool or "CloudCompare"
+    os.makedirs(args.work, exist_ok=True)
+    with tempfile.TemporaryDirectory(dir=args.work) as tmp:
+        ours, theirs = os.path.join(tmp, "scan.ply"), os.path.join(tmp, "cloudcompare.ply")
+        r = run([args.locard, "convert", args.source, ours])
+        check(r.returncode == 0, "locard convert %s failed: %s" % (args.source, r.stderr[-2000:]))
+        if r.returncode != 0:
+            return
+        r = run([tool, "-SILENT", "-AUTO_SAVE", "OFF", "-O", ours, "-C_EXPORT_FMT", "PLY",
+                 "-PLY_EXPORT_FMT", "ASCII", "-SAVE_CLOUDS", "FILE", theirs], env=env)
+        ok = r.returncode == 0 and os.path.exists(theirs)
+        check(ok, "CloudCompare failed on %s: %s" % (ours, r.stdout[-2000:] + r.stderr[-1000:]))
+        if not ok:
+            return
+        xyz, colours, _ = read_ply(ours)
+        cc_xyz, cc_colours, _ = read_ply(theirs)
+        with open(theirs, "rb") as f:
+            header = f.read(2000).decode("ascii", "replace")
+    check(colours is not None, "locard wrote no colour for %s" % args.source)
+    check(cc_colours is not None, "CloudCompare read no colour")
+    check(len(cc_xyz) == len(xyz), "CloudCompare has %d points, Locard wrote %d" % (len(cc_xyz), len(xyz)))
+    check("intensity" in header, "CloudCompare read no intensity")
+    if colours is None or cc_colours is None or len(cc_xyz) != len(xyz):
+        return
+    # CloudCompare keeps the points' order; its ASCII PLY prints 6 significant digits.
+    position = float(numpy.abs(cc_xyz - xyz).max())
+    colour = float(numpy.abs(cc_colours - colours).max())
+    check(position <= 1e-4, "CloudCompare's positions off by up to %.2g m" % position)
+    check(colour == 0, "CloudCompare's colours off by up to %d steps" % colour)
+    print("cloudcompare %s: %d points, positions within %.1g m, colours identical, intensity read"
+          % (os.path.basename(args.source), len(xyz), position))
+
+
 def meshlab(args, reference):
     tool = args.tool or "meshlabserver"
     for path, fmt, up in exports(args.work, args.reference):
@@ -383,14 +420,18 @@ def meshlab(args, reference):
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
-    parser.add_argument("what", choices=["fixture", "blender", "assimp", "cloudcompare", "meshlab"])
+    parser.add_argument("what", choices=["fixture", "blender", "assimp", "cloudcompare", "meshlab",
+                                         "cloudcompare_e57"])
     parser.add_argument("--work", required=True)
     parser.add_argument("--locard")
     parser.add_argument("--tool", help="the tool's executable (default: its usual name)")
     parser.add_argument("--reference", help="a case's mesh.ply (its exports beside it)")
+    parser.add_argument("--source", help="cloudcompare_e57: the E57 scan to convert")
     args = parser.parse_args()
     if args.what == "fixture":
         fixture(args)
+    elif args.what == "cloudcompare_e57":
+        cloudcompare_e57(args)
     else:
         reference = Reference(args.reference or os.path.join(args.work, "room.ply"))
         globals()[args.what](args, reference)
