@@ -16,11 +16,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   namespace e57 = locard::e57_detail;
   std::string bytes(as_text(data, size));
   auto* pages = reinterpret_cast<std::uint8_t*>(bytes.data());
-  for (std::size_t at = 0; at + e57::kPageSize <= bytes.size(); at += e57::kPageSize) {
-    const std::uint32_t crc = e57::crc32c(pages + at, e57::kPagePayload);
-    for (int i = 0; i < 4; ++i)  // big-endian, as the standard stores it
-      pages[at + e57::kPagePayload + i] = static_cast<std::uint8_t>(crc >> (24 - 8 * i));
-  }
+  for (std::size_t at = 0; at + e57::kPageSize <= bytes.size(); at += e57::kPageSize)
+    e57::seal_page(pages + at);
   const auto path = scratch().fresh() / "input.e57";
   write_file(path, bytes);
   expect_documented_errors([&] { (void)locard::merge_scans(locard::read_e57(path).scans); });

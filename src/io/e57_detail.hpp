@@ -64,6 +64,8 @@ void resize_huge(std::vector<T>& v, std::size_t n) {
 
 // CRC-32C (Castagnoli), as E57 pages store it (big-endian in the page's last 4 bytes).
 std::uint32_t crc32c(const std::uint8_t* data, std::size_t size);
+// Writes a whole page's CRC-32C of its payload into its last 4 bytes.
+void seal_page(std::uint8_t* page);
 
 struct FileHeader {
   std::uint32_t major = 1;

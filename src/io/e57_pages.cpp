@@ -158,7 +158,7 @@ void for_each_page_run(const std::uint8_t* logical, std::size_t size, Sink&& sin
       const std::size_t payload = from < size ? std::min<std::size_t>(kPagePayload, size - from) : 0;
       if (payload > 0) std::memcpy(p, logical + from, payload);
       std::memset(p + payload, 0, kPagePayload - payload);
-      store_be32(p + kPagePayload, crc32c(p, kPagePayload));
+      seal_page(p);
     }
     sink(run.data(), n * kPageSize);
   }
@@ -177,6 +177,8 @@ std::uint32_t crc32c(const std::uint8_t* data, std::size_t size) {
 #endif
   return ~crc32c_portable(0xFFFFFFFFu, data, size);
 }
+
+void seal_page(std::uint8_t* page) { store_be32(page + kPagePayload, crc32c(page, kPagePayload)); }
 
 LogicalFile load_logical_file(const std::filesystem::path& path) {
   LogicalFile file;

@@ -303,9 +303,13 @@ def assimp(args, reference):
               % (name, vertices, faces, err, worst))
 
 
+def run_cloudcompare(args, options):
+    """CloudCompare's command line, headless (-SILENT, no display)."""
+    return run([args.tool or "CloudCompare", "-SILENT", "-AUTO_SAVE", "OFF"] + options,
+               env=dict(os.environ, QT_QPA_PLATFORM="offscreen"))
+
+
 def cloudcompare(args, reference):
-    env = dict(os.environ, QT_QPA_PLATFORM="offscreen")
-    tool = args.tool or "CloudCompare"
     for path, fmt, up in exports(args.work, args.reference):
         if fmt != "obj":
             continue  # CloudCompare 2.11 reads neither glTF nor FBX
@@ -313,10 +317,10 @@ def cloudcompare(args, reference):
         with tempfile.TemporaryDirectory() as tmp:
             # Saving a textured mesh as PLY waits on a dialog even with -SILENT: re-save as OBJ.
             mesh_obj, points_ply = os.path.join(tmp, "mesh.obj"), os.path.join(tmp, "points.ply")
-            r = run([tool, "-SILENT", "-AUTO_SAVE", "OFF", "-O", path, "-M_EXPORT_FMT", "OBJ",
-                     "-SAVE_MESHES", "FILE", mesh_obj, "-SAMPLE_MESH", "POINTS", "20000",
-                     "-C_EXPORT_FMT", "PLY", "-PLY_EXPORT_FMT", "ASCII", "-SAVE_CLOUDS", "FILE",
-                     points_ply], env=env)
+            r = run_cloudcompare(args, ["-O", path, "-M_EXPORT_FMT", "OBJ", "-SAVE_MESHES", "FILE",
+                                        mesh_obj, "-SAMPLE_MESH", "POINTS", "20000", "-C_EXPORT_FMT",
+                                        "PLY", "-PLY_EXPORT_FMT", "ASCII", "-SAVE_CLOUDS", "FILE",
+                                        points_ply])
             ok = r.returncode == 0 and os.path.exists(points_ply) and os.path.exists(mesh_obj)
             check(ok, "%s: CloudCompare failed: %s" % (name, r.stdout[-2000:] + r.stderr[-1000:]))
             if not ok:
@@ -356,8 +360,6 @@ def cloudcompare(args, reference):
 def cloudcompare_e57(args):
     """A laser scan read from E57 by Locard and written as PLY: CloudCompare opens it with every
     point, its colour and its intensity (the pump-room scan of docs/e57.md)."""
-    env = dict(os.environ, QT_QPA_PLATFORM="offscreen")
-    tool = args.tool or "CloudCompare"
     os.makedirs(args.work, exist_ok=True)
     with tempfile.TemporaryDirectory(dir=args.work) as tmp:
         ours, theirs = os.path.join(tmp, "scan.ply"), os.path.join(tmp, "cloudcompare.ply")
@@ -365,8 +367,8 @@ def cloudcompare_e57(args):
         check(r.returncode == 0, "locard convert %s failed: %s" % (args.source, r.stderr[-2000:]))
         if r.returncode != 0:
             return
-        r = run([tool, "-SILENT", "-AUTO_SAVE", "OFF", "-O", ours, "-C_EXPORT_FMT", "PLY",
-                 "-PLY_EXPORT_FMT", "ASCII", "-SAVE_CLOUDS", "FILE", theirs], env=env)
+        r = run_cloudcompare(args, ["-O", ours, "-C_EXPORT_FMT", "PLY", "-PLY_EXPORT_FMT", "ASCII",
+                                    "-SAVE_CLOUDS", "FILE", theirs])
         ok = r.returncode == 0 and os.path.exists(theirs)
         check(ok, "CloudCompare failed on %s: %s" % (ours, r.stdout[-2000:] + r.stderr[-1000:]))
         if not ok:
