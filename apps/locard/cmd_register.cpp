@@ -129,6 +129,62 @@ PointCloud read_cloud(const std::string& path, const char* which) {
   return cloud;
 }
 
+// The registration's result: JSON (--json) or text for a person.
+void print_registration(const RegisterOptions& opt, const IcpResult& result,
+                        RobustKernelType kernel, double kernel_scale, double distance,
+                        const nlohmann::json& init_json, const std::string& init_text) {
+  if (opt.json) {
+    nlohmann::json levels = nlohmann::json::array();
+    for (const IcpLevelReport& l : result.levels)
+      levels.push_back({{"voxel_size", l.voxel_size},
+                        {"max_correspondence_distance", l.max_correspondence_distance},
+                        {"source_points", l.source_points},
+                        {"target_points", l.target_points},
+                        {"iterations", l.iterations},
+                        {"converged", l.converged},
+                        {"fitness", l.fitness},
+                        {"inlier_rmse", l.inlier_rmse}});
+    nlohmann::json j = {{"source", opt.source},
+                        {"target", opt.target},
+                        {"success", result.success},
+                        {"reason", result.reason},
+                        {"T_target_source", matrix_json(result.T_target_source.matrix())},
+                        {"fitness", result.fitness},
+                        {"inlier_rmse", result.inlier_rmse},
+                        {"correspondences", result.correspondences},
+                        {"max_correspondence_distance", distance},
+                        {"iterations", result.iterations},
+                        {"converged", result.converged},
+                        {"method", std::string(to_string(result.method))},
+                        {"kernel", std::string(to_string(kernel))},
+                        {"target_normals_estimated", result.target_normals_estimated},
+                        {"source_non_finite", result.source_non_finite},
+                        {"target_non_finite", result.target_non_finite},
+                        {"information", matrix_json(result.information)},
+                        {"initial", init_json},
+                        {"levels", levels}};
+    std::printf("%s\n", j.dump(2).c_str());
+  } else {
+    fmt::print("T_target_source (maps {} into the frame of {}):\n{}", opt.source, opt.target,
+               matrix_text(result.T_target_source, "  "));
+    fmt::print("fitness:       {:.6f} ({} of {} source points within {:.4g} m)\n",
+               result.fitness, result.correspondences, result.source_points, distance);
+    fmt::print("inlier RMSE:   {:.6g} m\n", result.inlier_rmse);
+    fmt::print("iterations:    {} ({})\n", result.iterations,
+               result.converged ? "converged" : "iteration limit reached");
+    fmt::print("method:        {}{}{}\n", to_string(result.method),
+               kernel == RobustKernelType::None
+                   ? std::string()
+                   : fmt::format(", {} kernel (scale {:.4g})", to_string(kernel),
+                                 kernel_scale),
+               result.target_normals_estimated ? ", target normals estimated" : "");
+    fmt::print("initial:       {}\n", init_text);
+    if (result.source_non_finite || result.target_non_finite)
+      fmt::print("dropped:       {} source and {} target points with NaN/Inf coordinates\n",
+                 result.source_non_finite, result.target_non_finite);
+  }
+}
+
 int run_register(const RegisterOptions& opt, const GlobalOptions& global) {
   const auto method = parse_icp_method(opt.method);
   if (!method)
@@ -218,56 +274,7 @@ int run_register(const RegisterOptions& opt, const GlobalOptions& global) {
   }
   const IcpResult result = icp_multiscale(source, target, init, icp_opt, scales);
 
-  if (opt.json) {
-    nlohmann::json levels = nlohmann::json::array();
-    for (const IcpLevelReport& l : result.levels)
-      levels.push_back({{"voxel_size", l.voxel_size},
-                        {"max_correspondence_distance", l.max_correspondence_distance},
-                        {"source_points", l.source_points},
-                        {"target_points", l.target_points},
-                        {"iterations", l.iterations},
-                        {"converged", l.converged},
-                        {"fitness", l.fitness},
-                        {"inlier_rmse", l.inlier_rmse}});
-    nlohmann::json j = {{"source", opt.source},
-                        {"target", opt.target},
-                        {"success", result.success},
-                        {"reason", result.reason},
-                        {"T_target_source", matrix_json(result.T_target_source.matrix())},
-                        {"fitness", result.fitness},
-                        {"inlier_rmse", result.inlier_rmse},
-                        {"correspondences", result.correspondences},
-                        {"max_correspondence_distance", distance},
-                        {"iterations", result.iterations},
-                        {"converged", result.converged},
-                        {"method", std::string(to_string(result.method))},
-                        {"kernel", std::string(to_string(*kernel))},
-                        {"target_normals_estimated", result.target_normals_estimated},
-                        {"source_non_finite", result.source_non_finite},
-                        {"target_non_finite", result.target_non_finite},
-                        {"information", matrix_json(result.information)},
-                        {"initial", init_json},
-                        {"levels", levels}};
-    std::printf("%s\n", j.dump(2).c_str());
-  } else {
-    fmt::print("T_target_source (maps {} into the frame of {}):\n{}", opt.source, opt.target,
-               matrix_text(result.T_target_source, "  "));
-    fmt::print("fitness:       {:.6f} ({} of {} source points within {:.4g} m)\n",
-               result.fitness, result.correspondences, result.source_points, distance);
-    fmt::print("inlier RMSE:   {:.6g} m\n", result.inlier_rmse);
-    fmt::print("iterations:    {} ({})\n", result.iterations,
-               result.converged ? "converged" : "iteration limit reached");
-    fmt::print("method:        {}{}{}\n", to_string(result.method),
-               *kernel == RobustKernelType::None
-                   ? std::string()
-                   : fmt::format(", {} kernel (scale {:.4g})", to_string(*kernel),
-                                 icp_opt.kernel.scale),
-               result.target_normals_estimated ? ", target normals estimated" : "");
-    fmt::print("initial:       {}\n", init_text);
-    if (result.source_non_finite || result.target_non_finite)
-      fmt::print("dropped:       {} source and {} target points with NaN/Inf coordinates\n",
-                 result.source_non_finite, result.target_non_finite);
-  }
+  print_registration(opt, result, *kernel, icp_opt.kernel.scale, distance, init_json, init_text);
   if (!result.success) {
     std::fprintf(stderr, "locard: registration failed: %s\n", result.reason.c_str());
     return 3;

@@ -3,8 +3,8 @@
 #include "commands.hpp"
 
 #include <locard/forensics/case_folder.hpp>
+#include <locard/forensics/case_simulation.hpp>
 #include <locard/forensics/report.hpp>
-#include <locard/sim/physics_output.hpp>
 
 #include <fmt/format.h>
 
@@ -27,12 +27,12 @@ struct SimulateCliOptions {
 };
 
 int run(const SimulateCliOptions& o, const GlobalOptions& global) {
-  sim::SimulateOptions options;
+  forensics::SimulateOptions options;
   options.force = o.force;
   options.seed = o.seed;
   options.duration = o.duration;
   options.fps = o.fps;
-  const sim::SimulateSummary s = sim::simulate_case(o.case_dir, o.scenario, options);
+  const forensics::SimulateSummary s = forensics::simulate_case(o.case_dir, o.scenario, options);
   if (!global.quiet) {
     std::map<std::string, int> counts;
     for (const auto& e : s.result.events) ++counts[e.type];

@@ -3,13 +3,13 @@
 #include "forensics/json_util.hpp"
 #include "io/json_file.hpp"
 
+#include <locard/core/depth_noise.hpp>
 #include <locard/core/error.hpp>
 #include <locard/core/kdtree.hpp>
+#include <locard/core/raycaster.hpp>
 #include <locard/forensics/case_folder.hpp>
 #include <locard/io/image_io.hpp>
 #include <locard/io/ply.hpp>
-#include <locard/sim/kinect_v2_model.hpp>
-#include <locard/sim/raycaster.hpp>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -143,7 +143,7 @@ CaseSensor read_case_sensor(const fs::path& path) {
 }  // namespace
 
 double SensorNoiseModel::axial_sigma_m(double z_m, double incidence_rad) const {
-  if (name == "kinect_v2") return sim::KinectV2Model{}.axial_sigma_m(z_m, incidence_rad);
+  if (name == "kinect_v2") return time_of_flight_axial_sigma_m(z_m, incidence_rad);
   const double grazing = 1.0 / std::max(0.2, std::cos(std::clamp(incidence_rad, 0.0, 1.5)));
   if (name == "structured_light") return (0.0012 + 0.0019 * (z_m - 0.4) * (z_m - 0.4)) * grazing;
   if (name == "realsense") return 0.008 * z_m * grazing;
@@ -174,7 +174,7 @@ SensorNoiseModel SensorNoiseModel::for_sensor(DepthSensorKind sensor) {
 
 struct CaseModel::Impl {
   TriangleMesh mesh;
-  sim::Raycaster raycaster;
+  Raycaster raycaster;
   KdTree vertex_tree;
   std::vector<ViewRecord> views;
   CameraIntrinsics intrinsics;
@@ -240,7 +240,7 @@ CaseModel CaseModel::load(const CaseFolder& folder) {
 }
 
 const TriangleMesh& CaseModel::mesh() const { return impl_->mesh; }
-const sim::Raycaster& CaseModel::raycaster() const { return impl_->raycaster; }
+const Raycaster& CaseModel::raycaster() const { return impl_->raycaster; }
 const std::vector<ViewRecord>& CaseModel::views() const { return impl_->views; }
 const CameraIntrinsics& CaseModel::intrinsics() const { return impl_->intrinsics; }
 const SensorNoiseModel& CaseModel::noise() const { return impl_->noise; }
@@ -269,7 +269,7 @@ std::vector<std::uint32_t> CaseModel::observing_views(const Eigen::Vector3d& p,
     const Eigen::Vector3d c = T.translation();
     const Eigen::Vector3d d = p - c;
     const double len = d.norm();
-    const sim::RayHit hit = impl_->raycaster.intersect(c.cast<float>(), d.cast<float>(), 0.0f, 2.0f);
+    const RayHit hit = impl_->raycaster.intersect(c.cast<float>(), d.cast<float>(), 0.0f, 2.0f);
     if (hit.hit() && hit.t * len < len - tolerance_m) continue;  // something in front of p
     out.push_back(k);
   }

@@ -7,6 +7,8 @@
 
 #include <fmt/format.h>
 
+#include <algorithm>
+
 namespace locard::forensics {
 namespace {
 
@@ -96,6 +98,35 @@ std::vector<Matrix6d> pose_covariances(const PoseGraph& graph,
     out[k] = x.block(block(k), 0, 6, 6);
     out[k] = 0.5 * (out[k] + out[k].transpose()).eval();
   }
+  return out;
+}
+
+ViewCovariances view_covariances(const AlignmentResult& result, double noise_floor_sigma_m,
+                                 std::size_t fixed_node) {
+  ViewCovariances out;
+  for (const PoseGraphEdge& e : result.graph.edges) {
+    const FrameAlignment& fs_ = result.frames[result.node_frames[e.source]];
+    const FrameAlignment& ft = result.frames[result.node_frames[e.target]];
+    out.sigmas.push_back(std::max({noise_floor_sigma_m, fs_.inlier_rmse, ft.inlier_rmse}));
+  }
+  const std::vector<double>& sigmas = out.sigmas;
+  out.covariances = sigmas.empty()
+                        ? std::vector<Matrix6d>(result.graph.nodes.size(), Matrix6d::Zero())
+                        : pose_covariances(result.graph, sigmas, fixed_node);
+  const std::vector<Isometry3d>& judged_at =
+      result.refinement.graph_optimum.size() == result.graph.nodes.size()
+          ? result.refinement.graph_optimum
+          : result.graph.nodes;
+  double chi2 = 0.0;
+  for (std::size_t e = 0; e < result.graph.edges.size(); ++e) {
+    const PoseGraphEdge& edge = result.graph.edges[e];
+    const double w = (edge.uncertain ? edge.confidence : 1.0) / (sigmas[e] * sigmas[e]);
+    chi2 += w * edge_chi2(edge, judged_at);
+  }
+  const double redundancy = 6.0 * static_cast<double>(result.graph.edges.size()) -
+                            6.0 * static_cast<double>(result.graph.nodes.size() - 1);
+  if (redundancy > 0) out.variance_factor = std::max(1.0, chi2 / redundancy);
+  for (Matrix6d& c : out.covariances) c *= out.variance_factor;
   return out;
 }
 

@@ -333,44 +333,51 @@ void run_coverage_stage(CaseFolder& folder, const RgbdSequence& sequence,
   summary.stage_seconds.emplace_back("coverage", seconds_since(t0));
 }
 
-// The stages, each a logged step, between the "begin" and "complete" lines.
-void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const ReconstructParameters& P,
-                const StageCallbacks& cb, ReconstructSummary& summary) {
-  auto begin = [&](const std::string& stage, std::size_t total) -> ProgressCallback {
-    return cb.begin ? cb.begin(stage, total) : ProgressCallback{};
-  };
-  auto end = [&](const std::string& stage) {
-    if (cb.end) cb.end(stage);
-  };
-  auto note = [&](const std::string& m) {
-    if (cb.log) cb.log(m);
-  };
-  const fs::path& input = plan.input;
-  const fs::path& input_root = plan.input_root;
-  const fs::path& case_dir = folder.root();
-  const RgbdSequence& sequence = plan.sequence;
-  const DatasetFormat format = plan.format;
-  const fs::path& reference = plan.reference;
-  const std::vector<ReferenceMeasurement>& refs = plan.refs;
-  const std::vector<MeshFormat>& formats = plan.formats;
+// What every stage of one reconstruction reads, and the progress and notes it reports.
+struct StageContext {
+  CaseFolder& folder;
+  const ReconstructPlan& plan;
+  const ReconstructParameters& P;
+  const StageCallbacks& cb;
+  ReconstructSummary& summary;
 
-  // ---- ingest: hash the inputs (and frames named outside the input folder), write case.json
+  ProgressCallback begin(const std::string& stage, std::size_t total) const {
+    return cb.begin ? cb.begin(stage, total) : ProgressCallback{};
+  }
+  void end(const std::string& stage) const {
+    if (cb.end) cb.end(stage);
+  }
+  void note(const std::string& message) const {
+    if (cb.log) cb.log(message);
+  }
+};
+
+// ---- ingest: hash the inputs (and frames named outside the input folder), write case.json
+json ingest_stage(const StageContext& c, const SensorNoiseModel& noise) {
+  CaseFolder& folder = c.folder;
+  const ReconstructParameters& P = c.P;
+  const fs::path& input_root = c.plan.input_root;
+  const fs::path& case_dir = folder.root();
+  const RgbdSequence& sequence = c.plan.sequence;
+  const DatasetFormat format = c.plan.format;
+  ReconstructSummary& summary = c.summary;
   auto t0 = Clock::now();
-  std::vector<FileRecord> inputs = hash_inputs(input_root, begin("hash inputs", 0));
-  end("hash inputs");
+  std::vector<FileRecord> inputs = hash_inputs(input_root, c.begin("hash inputs", 0));
+  c.end("hash inputs");
   for (const fs::path& p : frames_outside(sequence, input_root))
     inputs.push_back({p.string(), fs::file_size(p), sha256_file(p)});
   json input_files = json::array();
   for (const FileRecord& r : inputs)
     input_files.push_back({{"path", r.path}, {"bytes", r.bytes}, {"sha256", r.sha256}});
-  const SensorNoiseModel noise = SensorNoiseModel::for_sensor(sequence.traits.sensor);
   json seeds = {{"ransac", P.seed}};
   if (fs::is_regular_file(input_root / "simulation.json")) {
     std::ifstream sim_in(input_root / "simulation.json");
     try {
       const json sim = json::parse(sim_in);
       if (sim.contains("seed")) seeds["simulation"] = sim["seed"];
-    } catch (const json::parse_error&) {
+    } catch (const json::parse_error& e) {  // the seed is a record, not an input: say so, go on
+      c.note(fmt::format("{}: not JSON ({}); the simulation seed is not recorded",
+                         (input_root / "simulation.json").string(), e.what()));
     }
   }
   json case_json = {
@@ -415,12 +422,17 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
     folder.append_log_step(s);
   }
   summary.stage_seconds.emplace_back("ingest", seconds_since(t0));
+  return case_json;
+}
 
-  // ---- align
-  t0 = Clock::now();
-  AlignmentOptions ao = default_alignment_options(sequence.traits);  // ring sizes and the rest
-  ao.mode = plan.mode;
-  ao.odometry_method = plan.odometry_icp;
+// ---- align: the sequence's views registered, loop-closed and checked (align_sequence)
+AlignmentResult align_stage(const StageContext& c, AlignmentOptions& ao) {
+  const ReconstructParameters& P = c.P;
+  const RgbdSequence& sequence = c.plan.sequence;
+  ReconstructSummary& summary = c.summary;
+  ao = default_alignment_options(sequence.traits);  // ring sizes and the rest
+  ao.mode = c.plan.mode;
+  ao.odometry_method = c.plan.odometry_icp;
   ao.voxel_size = P.align_voxel_m;
   ao.stride = P.stride;
   ao.min_depth_m = P.min_depth_m;
@@ -436,9 +448,9 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
   const std::size_t first = std::min(P.first_frame, sequence.frames.size());
   const std::size_t total =
       P.max_frames ? std::min(P.max_frames, sequence.frames.size() - first) : sequence.frames.size() - first;
-  ao.progress = begin("align", total);
+  ao.progress = c.begin("align", total);
   AlignmentResult result = align_sequence(sequence, ao);
-  end("align");
+  c.end("align");
   for (const FrameAlignment& f : result.frames) summary.registered += f.status == FrameStatus::Registered;
   summary.usable = result.usable_frames();
   summary.verified = result.trusted_frames();
@@ -446,23 +458,37 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
   summary.enough_verified = result.enough_trusted();
   for (const FrameAlignment& f : result.frames)
     if (f.status == FrameStatus::Registered && f.check.checked && !f.check.verified)
-      note(fmt::format("frame {} flagged by the self-check, left out of the mesh and the "
+      c.note(fmt::format("frame {} flagged by the self-check, left out of the mesh and the "
                        "measurements: {}",
                        f.frame_index, f.check.reason));
   if (summary.registered < 2)
     throw InputError(fmt::format("{}: fewer than two frames could be registered; nothing to "
                                  "reconstruct",
-                                 input.string()));
+                                 c.plan.input.string()));
   if (result.pieces > 1)
-    note(fmt::format("the sequence falls into {} unconnected pieces; only piece 0 is meshed",
+    c.note(fmt::format("the sequence falls into {} unconnected pieces; only piece 0 is meshed",
                      result.pieces));
-  // Gauge: move the model so the first registered view sits at its known pose, if any.
+  return result;
+}
+
+// Where the model goes: the input's world frame where the first registered view's pose is
+// known (the gauge), levelled from the data's gravity or else from the floor.
+struct WorldFrame {
   Isometry3d T_world_estimate = Isometry3d::Identity();
-  std::string world_frame = "camera frame of the first registered view";
+  std::string description;   // the case's world_frame sentence
+  std::string level_source;  // "gravity", "floor", "floor, level as given"; empty: not levelled
+};
+
+WorldFrame choose_world_frame(const StageContext& c, const AlignmentResult& result) {
+  // Gauge: move the model so the first registered view sits at its known pose, if any.
+  WorldFrame frame;
+  Isometry3d& T_world_estimate = frame.T_world_estimate;
+  std::string& world_frame = frame.description;
+  world_frame = "camera frame of the first registered view";
   bool in_input_frame = false;  // the data's world frame (its gravity, if recorded, applies)
-  if (P.world_frame == "auto" && !result.node_frames.empty()) {
+  if (c.P.world_frame == "auto" && !result.node_frames.empty()) {
     const FrameAlignment& f0 = result.frames[result.node_frames[0]];
-    const auto& gt = sequence.frames[f0.sequence_index].T_world_camera;
+    const auto& gt = c.plan.sequence.frames[f0.sequence_index].T_world_camera;
     if (gt && f0.T_world_camera_final) {
       T_world_estimate = *gt * f0.T_world_camera_final->inverse();
       in_input_frame = true;
@@ -474,9 +500,9 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
   // Levelled: where the data records gravity in its world frame (and the model is in that
   // frame), the case turns about the origin so gravity points along -z - top views, plans,
   // walk mode and clipping assume z up.
-  std::string level_source;  // empty: not levelled
+  std::string& level_source = frame.level_source;  // empty: not levelled
   const std::optional<GravityDirection> gravity =
-      in_input_frame ? read_gravity_direction(sequence) : std::nullopt;
+      in_input_frame ? read_gravity_direction(c.plan.sequence) : std::nullopt;
   if (gravity) {
     const Eigen::Matrix3d R_level = Eigen::Quaterniond::FromTwoVectors(gravity->down_world, -Eigen::Vector3d::UnitZ())
                   .toRotationMatrix();
@@ -493,11 +519,11 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
   // or a data frame that is not level, is turned so the floor's normal is +z.
   if (!gravity) {
     constexpr double kKeepLevelDeg = 5.0;
-    const auto [points, up] = floor_evidence(sequence, result, T_world_estimate, 12);
+    const auto [points, up] = floor_evidence(c.plan.sequence, result, T_world_estimate, 12);
     const std::optional<FloorLevel> floor = find_floor_level(points, up);
     if (!floor) {
       world_frame += ", not levelled: the data records no gravity and no floor plane was found";
-      note("not levelled: the data records no gravity and no floor was found in the views; "
+      c.note("not levelled: the data records no gravity and no floor was found in the views; "
            "top views and walk mode assume z up");
     } else if (in_input_frame && floor->tilt_deg <= kKeepLevelDeg) {
       level_source = "floor, level as given";
@@ -515,110 +541,90 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
                                  floor->tilt_deg, floor->inliers, floor->points, 1000 * floor->rms_m);
     }
   }
+  return frame;
+}
+
+// Every estimated pose of the result moved by T (the gauge and the levelling).
+void move_into_world(AlignmentResult& result, const Isometry3d& T_world_estimate) {
   for (FrameAlignment& f : result.frames) {
     if (f.T_world_camera_svd) f.T_world_camera_svd = T_world_estimate * *f.T_world_camera_svd;
     if (f.T_world_camera_icp) f.T_world_camera_icp = T_world_estimate * *f.T_world_camera_icp;
     if (f.T_world_camera_final) f.T_world_camera_final = T_world_estimate * *f.T_world_camera_final;
   }
   for (Isometry3d& T : result.graph.nodes) T = T_world_estimate * T;
-  // Pose covariances: edge information scaled by the registration residual (at least the
-  // sensor's noise floor at 1.5 m).
-  std::vector<double> sigmas;
-  const double floor_sigma = noise.axial_sigma_m(1.5, 0.0);
-  for (const PoseGraphEdge& e : result.graph.edges) {
-    const FrameAlignment& fs_ = result.frames[result.node_frames[e.source]];
-    const FrameAlignment& ft = result.frames[result.node_frames[e.target]];
-    sigmas.push_back(std::max({floor_sigma, fs_.inlier_rmse, ft.inlier_rmse}));
-  }
-  std::vector<Matrix6d> covariances =
-      sigmas.empty() ? std::vector<Matrix6d>(result.graph.nodes.size(), Matrix6d::Zero())
-                     : pose_covariances(result.graph, sigmas, ao.pose_graph.fixed_node);
-  // A posteriori variance factor (least-squares adjustment): the weighted chi2 of the kept
-  // edges over the redundancy (6 per edge - 6 per free node). Above 1, the registrations
-  // disagree more than their stated precision, and every covariance is inflated by it. Judged
-  // at the graph's own optimum: the joint refinement moves the poses off the tracking edges on
-  // purpose (it corrects them), which would read as the edges disagreeing.
-  double variance_factor = 1.0;
-  {
-    const std::vector<Isometry3d>& judged_at =
-        result.refinement.graph_optimum.size() == result.graph.nodes.size()
-            ? result.refinement.graph_optimum
-            : result.graph.nodes;
-    double chi2 = 0.0;
-    for (std::size_t e = 0; e < result.graph.edges.size(); ++e) {
-      const PoseGraphEdge& edge = result.graph.edges[e];
-      const double w = (edge.uncertain ? edge.confidence : 1.0) / (sigmas[e] * sigmas[e]);
-      chi2 += w * edge_chi2(edge, judged_at);
-    }
-    const double redundancy = 6.0 * static_cast<double>(result.graph.edges.size()) -
-                              6.0 * static_cast<double>(result.graph.nodes.size() - 1);
-    if (redundancy > 0) variance_factor = std::max(1.0, chi2 / redundancy);
-    for (Matrix6d& c : covariances) c *= variance_factor;
-  }
+}
 
-  const StageReport stage = make_stage_report(result, sequence);
-  write_stage_report_json(folder.path("alignment/stage_report.json"), result, stage);
-  write_stage_report_svg(folder.path("alignment/stage_report.svg"), result, stage);
-  write_tum_trajectory(folder.path("alignment/trajectory.txt"), result.trajectory(0));
-  {
-    json nodes = json::array(), edges = json::array(), rejected = json::array(), views = json::array();
-    for (std::size_t k = 0; k < result.graph.nodes.size(); ++k) {
-      const FrameAlignment& f = result.frames[result.node_frames[k]];
-      nodes.push_back({{"node", k}, {"frame_index", f.frame_index}, {"timestamp", f.timestamp},
-                       {"piece", f.piece}, {"T_world_camera", pose_json(result.graph.nodes[k])}});
-      if (f.piece != 0) continue;
-      views.push_back({{"node", k},
-                       {"frame_index", f.frame_index},
-                       {"timestamp", f.timestamp},
-                       {"depth_path", fs::absolute(sequence.frames[f.sequence_index].depth_path)
-                                          .lexically_normal()
-                                          .string()},
-                       {"T_world_camera", pose_json(result.graph.nodes[k])},
-                       {"covariance", matrix6_json(covariances[k])},
-                       {"sigma_translation_m", std::sqrt(covariances[k].block<3, 3>(3, 3).trace())},
-                       {"sigma_rotation_deg",
-                        std::sqrt(covariances[k].block<3, 3>(0, 0).trace()) * 180.0 / M_PI}});
-    }
-    auto edge_json = [&](const PoseGraphEdge& e) {
-      return json{{"source_node", e.source},
-                  {"target_node", e.target},
-                  {"source_frame", result.frames[result.node_frames[e.source]].frame_index},
-                  {"target_frame", result.frames[result.node_frames[e.target]].frame_index},
-                  {"kind", e.uncertain ? "loop" : "odometry"},
-                  {"T_target_source", pose_json(e.T_target_source)},
-                  {"information", matrix6_json(e.information)},
-                  {"line_process_weight", e.confidence},
-                  {"chi2", e.chi2}};
-    };
-    for (const PoseGraphEdge& e : result.graph.edges) edges.push_back(edge_json(e));
-    for (const RejectedEdge& e : result.pose_graph.rejected) {
-      json j = edge_json(e.edge);
-      j["reason"] = e.reason;
-      rejected.push_back(j);
-    }
-    write_json(folder.path("alignment/pose_graph.json"),
-               {{"convention", "T_world_camera maps camera points to the world; an edge's "
-                               "T_target_source maps source-camera points into the target "
-                               "camera; information is 6x6, rotation then translation"},
-                {"world_frame", world_frame},
-                {"nodes", nodes},
-                {"edges", edges},
-                {"rejected_edges", rejected}});
-    write_json(folder.path("alignment/pose_covariance.json"),
-               {{"convention", "covariance: 6x6, left perturbation exp(delta) T_world_camera, "
-                               "delta = (rotation rad, translation m) in the world frame"},
-                {"residual_sigma_m", sigmas},
-                {"variance_factor", variance_factor},
-                {"views", views}});
+// alignment/: stage report (JSON, SVG), trajectory (TUM), pose graph and pose covariances.
+void write_alignment_files(const StageContext& c, const AlignmentResult& result,
+                           const StageReport& stage, const ViewCovariances& cov,
+                           const std::string& world_frame) {
+  write_stage_report_json(c.folder.path("alignment/stage_report.json"), result, stage);
+  write_stage_report_svg(c.folder.path("alignment/stage_report.svg"), result, stage);
+  write_tum_trajectory(c.folder.path("alignment/trajectory.txt"), result.trajectory(0));
+  json nodes = json::array(), edges = json::array(), rejected = json::array(), views = json::array();
+  for (std::size_t k = 0; k < result.graph.nodes.size(); ++k) {
+    const FrameAlignment& f = result.frames[result.node_frames[k]];
+    nodes.push_back({{"node", k}, {"frame_index", f.frame_index}, {"timestamp", f.timestamp},
+                     {"piece", f.piece}, {"T_world_camera", pose_json(result.graph.nodes[k])}});
+    if (f.piece != 0) continue;
+    views.push_back({{"node", k},
+                     {"frame_index", f.frame_index},
+                     {"timestamp", f.timestamp},
+                     {"depth_path", fs::absolute(c.plan.sequence.frames[f.sequence_index].depth_path)
+                                        .lexically_normal()
+                                        .string()},
+                     {"T_world_camera", pose_json(result.graph.nodes[k])},
+                     {"covariance", matrix6_json(cov.covariances[k])},
+                     {"sigma_translation_m", std::sqrt(cov.covariances[k].block<3, 3>(3, 3).trace())},
+                     {"sigma_rotation_deg",
+                      std::sqrt(cov.covariances[k].block<3, 3>(0, 0).trace()) * 180.0 / M_PI}});
   }
+  auto edge_json = [&](const PoseGraphEdge& e) {
+    return json{{"source_node", e.source},
+                {"target_node", e.target},
+                {"source_frame", result.frames[result.node_frames[e.source]].frame_index},
+                {"target_frame", result.frames[result.node_frames[e.target]].frame_index},
+                {"kind", e.uncertain ? "loop" : "odometry"},
+                {"T_target_source", pose_json(e.T_target_source)},
+                {"information", matrix6_json(e.information)},
+                {"line_process_weight", e.confidence},
+                {"chi2", e.chi2}};
+  };
+  for (const PoseGraphEdge& e : result.graph.edges) edges.push_back(edge_json(e));
+  for (const RejectedEdge& e : result.pose_graph.rejected) {
+    json j = edge_json(e.edge);
+    j["reason"] = e.reason;
+    rejected.push_back(j);
+  }
+  write_json(c.folder.path("alignment/pose_graph.json"),
+             {{"convention", "T_world_camera maps camera points to the world; an edge's "
+                             "T_target_source maps source-camera points into the target "
+                             "camera; information is 6x6, rotation then translation"},
+              {"world_frame", world_frame},
+              {"nodes", nodes},
+              {"edges", edges},
+              {"rejected_edges", rejected}});
+  write_json(c.folder.path("alignment/pose_covariance.json"),
+             {{"convention", "covariance: 6x6, left perturbation exp(delta) T_world_camera, "
+                             "delta = (rotation rad, translation m) in the world frame"},
+              {"residual_sigma_m", cov.sigmas},
+              {"variance_factor", cov.variance_factor},
+              {"views", views}});
+}
+
+// case.json's world frame, level and alignment summary, and the align step in the log.
+void record_alignment(const StageContext& c, json& case_json, const AlignmentResult& result,
+                      const StageReport& stage, const WorldFrame& frame, Clock::time_point t0) {
+  const ReconstructParameters& P = c.P;
+  ReconstructSummary& summary = c.summary;
   std::size_t loops = 0;
-  for (const LoopCandidate& c : result.loops) loops += c.accepted;
-  case_json["world_frame"] = world_frame;
+  for (const LoopCandidate& loop : result.loops) loops += loop.accepted;
+  case_json["world_frame"] = frame.description;
   // Typed, for the report and the viewer: whether +z is up, and from what (not read from the
   // world_frame sentence).
-  case_json["level"] = level_source.empty()
+  case_json["level"] = frame.level_source.empty()
                            ? json{{"levelled", false}}
-                           : json{{"levelled", true}, {"source", level_source}, {"up", {0.0, 0.0, 1.0}}};
+                           : json{{"levelled", true}, {"source", frame.level_source}, {"up", {0.0, 0.0, 1.0}}};
   case_json["alignment"] = {
       {"frames", result.frames.size()},
       {"registered", summary.registered},
@@ -644,7 +650,7 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
                    {"ate_rmse_m", stage.summary[k].ate_rmse_m ? json(*stage.summary[k].ate_rmse_m) : json()}});
     case_json["alignment"]["stage_errors"] = s;
   }
-  write_json(folder.path("case.json"), case_json);
+  write_json(c.folder.path("case.json"), case_json);
   {
     LogStep s;
     s.step = "align";
@@ -652,18 +658,22 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
                              {"voxel_m", P.align_voxel_m}, {"stride", P.stride},
                              {"depth_range_m", {P.min_depth_m, P.max_depth_m}},
                              {"loop_closure", P.loop_closure}, {"seed", P.seed},
-                             {"world_frame", world_frame}}.dump();
+                             {"world_frame", frame.description}}.dump();
     s.duration_s = seconds_since(t0);
     s.outputs = {"alignment/trajectory.txt", "alignment/pose_graph.json",
                  "alignment/pose_covariance.json", "alignment/stage_report.json",
                  "alignment/stage_report.svg", "case.json"};
-    folder.append_log_step(s);
+    c.folder.append_log_step(s);
   }
   summary.stage_seconds.emplace_back("align", seconds_since(t0));
+}
 
-  // ---- mesh
-  t0 = Clock::now();
-  std::vector<std::optional<Isometry3d>> poses(sequence.frames.size());
+// ---- mesh: the verified views of piece 0 fused (TSDF), cleaned and exported; their poses
+std::vector<std::optional<Isometry3d>> mesh_stage(const StageContext& c, const AlignmentResult& result) {
+  const ReconstructParameters& P = c.P;
+  ReconstructSummary& summary = c.summary;
+  const auto t0 = Clock::now();
+  std::vector<std::optional<Isometry3d>> poses(c.plan.sequence.frames.size());
   for (const FrameAlignment& f : result.frames)
     if (f.trusted() && f.piece == 0)
       poses[f.sequence_index] = *f.T_world_camera_final;
@@ -673,14 +683,14 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
   fo.tsdf.max_depth_m = P.max_depth_m;
   fo.tsdf.min_depth_m = P.min_depth_m;
   fo.cloud_voxel = P.cloud_voxel_m;
-  fo.progress = begin("mesh", summary.registered);
-  FusionResult fused = fuse_sequence(sequence, poses, fo);
-  end("mesh");
+  fo.progress = c.begin("mesh", summary.registered);
+  FusionResult fused = fuse_sequence(c.plan.sequence, poses, fo);
+  c.end("mesh");
   const std::size_t raw_triangles = fused.mesh.triangle_count();
   const ComponentReport components = remove_small_components(fused.mesh, P.min_component);
-  const std::vector<fs::path> mesh_outputs = write_mesh_files(folder, fused.mesh, formats, export_up(P));
-  write_ply(folder.path("cloud/registered.ply"), fused.cloud);
-  write_json(folder.path("mesh/mesh.json"),
+  const std::vector<fs::path> mesh_outputs = write_mesh_files(c.folder, fused.mesh, c.plan.formats, export_up(P));
+  write_ply(c.folder.path("cloud/registered.ply"), fused.cloud);
+  write_json(c.folder.path("mesh/mesh.json"),
              {{"method", "tsdf"},
               {"voxel_size", fo.tsdf.voxel_size},
               {"truncation", fo.tsdf.truncation},
@@ -708,19 +718,43 @@ void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const Reconstru
     s.outputs = mesh_outputs;
     s.outputs.push_back("mesh/mesh.json");
     s.outputs.push_back("cloud/registered.ply");
-    folder.append_log_step(s);
+    c.folder.append_log_step(s);
   }
   summary.stage_seconds.emplace_back("mesh", seconds_since(t0));
+  return poses;
+}
+
+// The stages, each a logged step, between the "begin" and "complete" lines.
+void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const ReconstructParameters& P,
+                const StageCallbacks& cb, ReconstructSummary& summary) {
+  const StageContext c{folder, plan, P, cb, summary};
+  const SensorNoiseModel noise = SensorNoiseModel::for_sensor(plan.sequence.traits.sensor);
+  json case_json = ingest_stage(c, noise);
+
+  const auto t0 = Clock::now();
+  AlignmentOptions ao;
+  AlignmentResult result = align_stage(c, ao);
+  const WorldFrame frame = choose_world_frame(c, result);
+  move_into_world(result, frame.T_world_estimate);
+  // Pose covariances: edge information scaled by the registration residual (at least the
+  // sensor's noise floor at 1.5 m), inflated by the graph's variance factor.
+  const ViewCovariances covariances =
+      view_covariances(result, noise.axial_sigma_m(1.5, 0.0), ao.pose_graph.fixed_node);
+  const StageReport stage = make_stage_report(result, plan.sequence);
+  write_alignment_files(c, result, stage, covariances, frame.description);
+  record_alignment(c, case_json, result, stage, frame, t0);
+
+  const std::vector<std::optional<Isometry3d>> poses = mesh_stage(c, result);
 
   // ---- export e57: one scan per verified view (the views the mesh fused), at its pose
-  write_views_e57(folder, rgbd_e57_views(sequence, poses, P), {"alignment/trajectory.txt"},
+  write_views_e57(folder, rgbd_e57_views(plan.sequence, poses, P), {"alignment/trajectory.txt"},
                   json{{"views", "verified"}, {"points", "depth in the camera frame"},
                        {"voxel_m", P.cloud_voxel_m}}.dump(),
                   summary);
 
-  run_coverage_stage(folder, sequence, result, poses, P, summary, note);
-
-  run_measure_stage(folder, reference, refs, P, StageHooks{cb}, summary);
+  run_coverage_stage(folder, plan.sequence, result, poses, P, summary,
+                     [&c](const std::string& message) { c.note(message); });
+  run_measure_stage(folder, plan.reference, plan.refs, P, StageHooks{cb}, summary);
   run_report_stage(folder, case_json["title"].get<std::string>(), P, StageHooks{cb}, summary);
 }
 

@@ -9,7 +9,7 @@
 #include <locard/forensics/integrity.hpp>
 #include <locard/io/image_io.hpp>
 #include <locard/io/trajectory_io.hpp>
-#include <locard/sim/raycaster.hpp>
+#include <locard/core/raycaster.hpp>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -111,7 +111,7 @@ std::string v3(const json& j, int digits = 3) {
 }
 
 // Shades a hit: headlight Lambert times the interpolated vertex colour.
-void shade(const TriangleMesh& mesh, const sim::RayHit& hit, const Vector3d& dir, std::uint8_t* px) {
+void shade(const TriangleMesh& mesh, const RayHit& hit, const Vector3d& dir, std::uint8_t* px) {
   const auto& t = mesh.triangles[hit.triangle];
   const Vector3d a = mesh.vertices[t[0]].cast<double>(), b = mesh.vertices[t[1]].cast<double>(),
                  c = mesh.vertices[t[2]].cast<double>();
@@ -141,7 +141,7 @@ struct TopView {
 };
 
 // Orthographic view from above, cut below the ceiling: rays start at the cut height.
-TopView render_top_view(const TriangleMesh& mesh, const sim::Raycaster& rc, const Vector3d& up,
+TopView render_top_view(const TriangleMesh& mesh, const Raycaster& rc, const Vector3d& up,
                         int width, int height) {
   TopView v;
   v.up = up.normalized();
@@ -171,7 +171,7 @@ TopView render_top_view(const TriangleMesh& mesh, const sim::Raycaster& rc, cons
     for (int x = 0; x < width; ++x) {
       const Vector3d o = v.centre + ((x + 0.5 - 0.5 * width) / v.scale) * v.ex -
                          ((y + 0.5 - 0.5 * height) / v.scale) * v.ey;
-      const sim::RayHit h = rc.intersect(o.cast<float>(), dir.cast<float>());
+      const RayHit h = rc.intersect(o.cast<float>(), dir.cast<float>());
       if (h.hit()) shade(mesh, h, dir, &v.image.at(x, y, 0));
     }
   });
@@ -362,7 +362,7 @@ std::string svg_text(const std::string& svg) {
 
 }  // namespace
 
-ColorImage render_mesh_view(const TriangleMesh& mesh, const sim::Raycaster& rc, const Vector3d& eye,
+ColorImage render_mesh_view(const TriangleMesh& mesh, const Raycaster& rc, const Vector3d& eye,
                             const Vector3d& target, const Vector3d& up, double fov_deg, int width,
                             int height) {
   const Vector3d fwd = (target - eye).normalized();
@@ -373,7 +373,7 @@ ColorImage render_mesh_view(const TriangleMesh& mesh, const sim::Raycaster& rc, 
   tbb::parallel_for(0, height, [&](int y) {
     for (int x = 0; x < width; ++x) {
       const Vector3d dir = fwd + ((x + 0.5 - 0.5 * width) / f) * right + ((y + 0.5 - 0.5 * height) / f) * down;
-      const sim::RayHit h = rc.intersect(eye.cast<float>(), dir.cast<float>());
+      const RayHit h = rc.intersect(eye.cast<float>(), dir.cast<float>());
       if (h.hit()) shade(mesh, h, dir, &img.at(x, y, 0));
     }
   });
@@ -411,26 +411,31 @@ fs::path find_chromium() {
   return {};
 }
 
-ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o) {
-  const fs::path root = folder.root();
-  const json case_json = read_json_or_null(root / "case.json");
-  if (case_json.is_null()) throw_input_error(root / "case.json", "missing or not JSON");
-  const TriangleMesh mesh = folder.load_mesh();
-  const sim::Raycaster rc(mesh);
-  const Trajectory trajectory = read_tum_trajectory(root / "alignment" / "trajectory.txt");
+namespace {
+
+// What every section of the report reads: the case's records, loaded once.
+struct ReportInputs {
+  fs::path root;
+  json case_json;
+  Trajectory trajectory;
+  json markers;   // evidence/markers.json, or null
+  json analyses;  // trajectories/analyses.json, or null
+  CaseMetadata metadata;
+};
+
+Vector3d report_up(const ReportInputs& r) {
   // Up: the case frame's z where one was chosen (`locard level` on picked floor points, or
   // `marker frame` on a room corner); else +z in a levelled case (reconstruct levels from the
   // data's gravity or the floor); otherwise the mean of the cameras' -y axes (the sensor is held
   // roughly level).
   Vector3d up = Vector3d::Zero();
-  const std::string frame_text = case_json.value("world_frame", "");
-  const json markers = read_json_or_null(root / "evidence" / "markers.json");
+  const std::string frame_text = r.case_json.value("world_frame", "");
   const Vector3d frame_z =
-      !markers.is_null() && markers.contains("frame") && markers["frame"].contains("z_axis")
-          ? json_vec3(markers["frame"]["z_axis"], "evidence/markers.json: frame.z_axis")
+      !r.markers.is_null() && r.markers.contains("frame") && r.markers["frame"].contains("z_axis")
+          ? json_vec3(r.markers["frame"]["z_axis"], "evidence/markers.json: frame.z_axis")
           : Vector3d::UnitZ();
-  const bool levelled = case_json.contains("level")
-                            ? case_json["level"].value("levelled", false)
+  const bool levelled = r.case_json.contains("level")
+                            ? r.case_json["level"].value("levelled", false)
                             // cases written before the typed field: their world_frame sentence
                             : frame_text.find("levelled") != std::string::npos ||
                                   frame_text.find("level as given") != std::string::npos;
@@ -439,12 +444,17 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
   } else if (levelled) {
     up = Vector3d::UnitZ();
   } else {
-    for (const StampedPose& p : trajectory) up += p.T_world_camera.linear() * Vector3d(0, -1, 0);
+    for (const StampedPose& p : r.trajectory) up += p.T_world_camera.linear() * Vector3d(0, -1, 0);
     up = up.norm() > 1e-6 ? up.normalized() : Vector3d::UnitZ();
   }
-  const CaseMetadata metadata = read_case_metadata(folder);
+  return up;
+}
 
+std::string report_opening(const ReportInputs& r, const ReportOptions& o) {
   std::string h;
+  const json& case_json = r.case_json;
+  const CaseMetadata& metadata = r.metadata;
+  const fs::path& root = r.root;
   const std::string title = !metadata.number.empty()
                                 ? "Case " + metadata.number
                                 : (o.title.empty() ? case_json.value("title", "Locard case") : o.title);
@@ -481,6 +491,13 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
                      field(metadata.number), field(metadata.investigator),
                      field(metadata.location), field(metadata.date));
   }
+  return h;
+}
+
+std::string summary_section(const ReportInputs& r) {
+  std::string h;
+  const json& case_json = r.case_json;
+  const fs::path& root = r.root;
   // Summary
   h += "<h2 id=\"summary\">Summary</h2>\n<table>";
   const json& in = case_json["inputs"];
@@ -501,11 +518,13 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
                      mm(mj.value("voxel_size", 0.0), 1), mj.value("vertices", 0),
                      mj.value("triangles", 0), mj.value("cloud_points", 0));
   h += "</table>\n";
+  return h;
+}
 
-  // Rendered views
-  h += "<h2 id=\"views\">Rendered views of the model</h2>\n<div class=\"views\">";
-  const TopView top = render_top_view(mesh, rc, up, o.render_width, o.render_width * 3 / 4);
-  const std::string top_uri = png_data_uri(top.image);  // drawn on by every plan below
+std::string views_section(const TriangleMesh& mesh, const Raycaster& rc, const Vector3d& up,
+                          const std::string& top_uri, const Trajectory& trajectory,
+                          const ReportOptions& o) {
+  std::string h = "<h2 id=\"views\">Rendered views of the model</h2>\n<div class=\"views\">";
   h += "<figure><img alt=\"top view\" src=\"" + top_uri +
        "\"><figcaption>Top view (orthographic, cut below the ceiling)</figcaption></figure>";
   if (!trajectory.empty()) {
@@ -524,7 +543,13 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
     }
   }
   h += "</div>\n";
+  return h;
+}
 
+std::string stage_errors_section(const ReportInputs& r) {
+  std::string h;
+  const json& case_json = r.case_json;
+  const fs::path& root = r.root;
   // Stage-error plot (the paper's Fig. 4)
   h += "<h2 id=\"stage-errors\">Alignment error per stage (Fig. 4)</h2>\n";
   if (fs::exists(root / "alignment" / "stage_report.svg"))
@@ -543,54 +568,62 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
     h += "</table>\n";
   }
 
+  return h;
+}
+
+std::string trajectory_plot_section(const ReportInputs& r, const TopView& top,
+                                    const std::string& top_uri) {
+  std::string h;
+  const Trajectory& trajectory = r.trajectory;
+  const json& analyses = r.analyses;
+  const json& markers = r.markers;
   // Trajectory top view: camera path, markers and bullet lines over the top view.
-  const json analyses = read_json_or_null(root / "trajectories" / "analyses.json");
-  {
-    h += "<h2 id=\"trajectory\">Camera trajectory, evidence and bullet lines (top view)</h2>\n";
-    std::string svg = plan_svg_begin("trajectory-plot", top, top_uri, 0.55);
-    std::string path;
-    for (const StampedPose& p : trajectory) {
-      const auto px = top.to_pixel(p.T_world_camera.translation());
-      path += fmt::format("{}{:.1f},{:.1f} ", path.empty() ? "M" : "L", px.x(), px.y());
-    }
-    svg += "<path d=\"" + path + "\" fill=\"none\" stroke=\"#1f5fbf\" stroke-width=\"2\"/>";
-    for (const StampedPose& p : trajectory) {
-      const auto px = top.to_pixel(p.T_world_camera.translation());
-      const Vector3d f = p.T_world_camera.linear() * Vector3d::UnitZ();
-      const auto tip = top.to_pixel(p.T_world_camera.translation() + 0.25 * f);
-      svg += fmt::format("<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" "
-                         "stroke=\"#1f5fbf\" stroke-width=\"0.8\"/>",
-                         px.x(), px.y(), tip.x(), tip.y());
-    }
-    if (!analyses.is_null())
-      for (const json& a : analyses["analyses"]) {
-        if (a.contains("withdrawn")) continue;  // listed below as withdrawn, not drawn
-        const json& b = a["backward"];
-        const json& f = a["forward"];
-        const Vector3d p0 = b.value("hit", false) ? json_vec3(b["point"], "report") : json_vec3(a["points"].front(), "report");
-        const Vector3d p1 = f.value("hit", false) ? json_vec3(f["point"], "report") : json_vec3(a["points"].back(), "report");
-        const auto q0 = top.to_pixel(p0), q1 = top.to_pixel(p1);
-        svg += fmt::format("<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" "
-                           "stroke=\"#c00\" stroke-width=\"2\" stroke-dasharray=\"6 3\"/>",
-                           q0.x(), q0.y(), q1.x(), q1.y());
-      }
-    if (!markers.is_null())
-      for (const json& m : markers["markers"]) {
-        if (m.contains("withdrawn")) continue;
-        const auto px = top.to_pixel(json_vec3(m["world"], "report"));
-        svg += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"7\" fill=\"#ffd400\" "
-                           "stroke=\"#000\"/><text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"9\" "
-                           "text-anchor=\"middle\">{}</text>",
-                           px.x(), px.y(), px.x(), px.y() + 3, m.value("number", 0));
-      }
-    svg += map_furniture_svg(top) + "</svg>";
-    h += "<figure>" + svg +
-         "<figcaption>Blue: camera positions and viewing directions; yellow: evidence markers; "
-         "red dashed: bullet trajectories to the surfaces they meet</figcaption></figure>\n";
+  h += "<h2 id=\"trajectory\">Camera trajectory, evidence and bullet lines (top view)</h2>\n";
+  std::string svg = plan_svg_begin("trajectory-plot", top, top_uri, 0.55);
+  std::string path;
+  for (const StampedPose& p : trajectory) {
+    const auto px = top.to_pixel(p.T_world_camera.translation());
+    path += fmt::format("{}{:.1f},{:.1f} ", path.empty() ? "M" : "L", px.x(), px.y());
   }
+  svg += "<path d=\"" + path + "\" fill=\"none\" stroke=\"#1f5fbf\" stroke-width=\"2\"/>";
+  for (const StampedPose& p : trajectory) {
+    const auto px = top.to_pixel(p.T_world_camera.translation());
+    const Vector3d f = p.T_world_camera.linear() * Vector3d::UnitZ();
+    const auto tip = top.to_pixel(p.T_world_camera.translation() + 0.25 * f);
+    svg += fmt::format("<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" "
+                       "stroke=\"#1f5fbf\" stroke-width=\"0.8\"/>",
+                       px.x(), px.y(), tip.x(), tip.y());
+  }
+  if (!analyses.is_null())
+    for (const json& a : analyses["analyses"]) {
+      if (a.contains("withdrawn")) continue;  // listed below as withdrawn, not drawn
+      const json& b = a["backward"];
+      const json& f = a["forward"];
+      const Vector3d p0 = b.value("hit", false) ? json_vec3(b["point"], "report") : json_vec3(a["points"].front(), "report");
+      const Vector3d p1 = f.value("hit", false) ? json_vec3(f["point"], "report") : json_vec3(a["points"].back(), "report");
+      const auto q0 = top.to_pixel(p0), q1 = top.to_pixel(p1);
+      svg += fmt::format("<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" "
+                         "stroke=\"#c00\" stroke-width=\"2\" stroke-dasharray=\"6 3\"/>",
+                         q0.x(), q0.y(), q1.x(), q1.y());
+    }
+  if (!markers.is_null())
+    for (const json& m : markers["markers"]) {
+      if (m.contains("withdrawn")) continue;
+      const auto px = top.to_pixel(json_vec3(m["world"], "report"));
+      svg += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"7\" fill=\"#ffd400\" "
+                         "stroke=\"#000\"/><text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"9\" "
+                         "text-anchor=\"middle\">{}</text>",
+                         px.x(), px.y(), px.x(), px.y() + 3, m.value("number", 0));
+    }
+  svg += map_furniture_svg(top) + "</svg>";
+  h += "<figure>" + svg +
+       "<figcaption>Blue: camera positions and viewing directions; yellow: evidence markers; "
+       "red dashed: bullet trajectories to the surfaces they meet</figcaption></figure>\n";
+  return h;
+}
 
-  h += coverage_section(root, top, top_uri);
-
+std::string table_one_section(const fs::path& root) {
+  std::string h;
   // Table I
   h += "<h2 id=\"measurements\">Measurements against reference (Table I)</h2>\n";
   const json table = read_json_or_null(root / "measurements" / "table.json");
@@ -639,8 +672,11 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
     h += "</table>\n";
   }
 
-  h += floor_plan_section(root, top, top_uri);
+  return h;
+}
 
+std::string evidence_section(const json& markers) {
+  std::string h;
   // Evidence
   h += "<h2 id=\"evidence\">Evidence markers</h2>\n";
   if (markers.is_null() || markers["markers"].empty()) {
@@ -662,6 +698,11 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
     h += "</table>\n";
   }
 
+  return h;
+}
+
+std::string trajectories_section(const json& analyses) {
+  std::string h;
   // Trajectories
   h += "<h2 id=\"trajectories\">Bullet trajectory analyses</h2>\n";
   if (analyses.is_null() || analyses["analyses"].empty()) {
@@ -686,46 +727,53 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
     h += "</table>\n";
   }
 
+  return h;
+}
+
+std::string simulations_section(const fs::path& root) {
+  std::string h;
   // Simulations: never measured data, said on every row.
   h += "<h2 id=\"simulations\">Simulations (illustrative)</h2>\n";
-  {
-    std::vector<fs::path> sims;
-    std::error_code ec;
-    if (fs::is_directory(root / "simulations", ec))
-      for (const auto& e : fs::directory_iterator(root / "simulations", ec))
-        if (e.is_directory() && fs::is_regular_file(e.path() / "events.json")) sims.push_back(e.path());
-    std::sort(sims.begin(), sims.end());
-    if (sims.empty()) {
-      h += "<p class=\"note\">No simulations (<code>locard simulate</code>).</p>\n";
-    } else {
-      h += "<p class=\"illustrative\">ILLUSTRATIVE: physics scenarios played against the model "
-           "show what could have happened under the scenario's assumptions. They are not "
-           "measured data.</p>\n<table id=\"simulation-table\"><tr><th>scenario</th><th>"
-           "description</th><th>events</th><th>support and warnings</th></tr>";
-      for (const fs::path& dir : sims) {
-        const json ev = read_json_or_null(dir / "events.json");
-        if (ev.is_null()) continue;
-        std::map<std::string, int> counts;
-        if (ev.contains("events") && ev["events"].is_array())
-          for (const json& e : ev["events"]) ++counts[e.value("type", "?")];
-        std::string events;
-        for (const auto& [type, n] : counts) events += fmt::format("{}{} {}", events.empty() ? "" : ", ", n, type);
-        std::string support;
-        if (ev.contains("inferred_support") && ev["inferred_support"].is_object())
-          support = fmt::format("floor inferred at {:.3f} m where the scan has holes",
-                                ev["inferred_support"].value("height_m", 0.0));
-        if (ev.contains("warnings") && ev["warnings"].is_array())
-          for (const json& w : ev["warnings"])
-            if (w.is_string()) support += (support.empty() ? "" : "; ") + std::string("warning: ") + w.get<std::string>();
-        h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
-                         esc(ev.value("scenario", dir.filename().string())),
-                         esc(ev.value("description", "")), esc(events.empty() ? "none" : events),
-                         esc(support.empty() ? "-" : support));
-      }
-      h += "</table>\n";
+  std::vector<fs::path> sims;
+  std::error_code ec;
+  if (fs::is_directory(root / "simulations", ec))
+    for (const auto& e : fs::directory_iterator(root / "simulations", ec))
+      if (e.is_directory() && fs::is_regular_file(e.path() / "events.json")) sims.push_back(e.path());
+  std::sort(sims.begin(), sims.end());
+  if (sims.empty()) {
+    h += "<p class=\"note\">No simulations (<code>locard simulate</code>).</p>\n";
+  } else {
+    h += "<p class=\"illustrative\">ILLUSTRATIVE: physics scenarios played against the model "
+         "show what could have happened under the scenario's assumptions. They are not "
+         "measured data.</p>\n<table id=\"simulation-table\"><tr><th>scenario</th><th>"
+         "description</th><th>events</th><th>support and warnings</th></tr>";
+    for (const fs::path& dir : sims) {
+      const json ev = read_json_or_null(dir / "events.json");
+      if (ev.is_null()) continue;
+      std::map<std::string, int> counts;
+      if (ev.contains("events") && ev["events"].is_array())
+        for (const json& e : ev["events"]) ++counts[e.value("type", "?")];
+      std::string events;
+      for (const auto& [type, n] : counts) events += fmt::format("{}{} {}", events.empty() ? "" : ", ", n, type);
+      std::string support;
+      if (ev.contains("inferred_support") && ev["inferred_support"].is_object())
+        support = fmt::format("floor inferred at {:.3f} m where the scan has holes",
+                              ev["inferred_support"].value("height_m", 0.0));
+      if (ev.contains("warnings") && ev["warnings"].is_array())
+        for (const json& w : ev["warnings"])
+          if (w.is_string()) support += (support.empty() ? "" : "; ") + std::string("warning: ") + w.get<std::string>();
+      h += fmt::format("<tr><td>{}</td><td>{}</td><td>{}</td><td>{}</td></tr>",
+                       esc(ev.value("scenario", dir.filename().string())),
+                       esc(ev.value("description", "")), esc(events.empty() ? "none" : events),
+                       esc(support.empty() ? "-" : support));
     }
+    h += "</table>\n";
   }
+  return h;
+}
 
+std::string parameters_section(const json& case_json) {
+  std::string h;
   // Parameters
   h += "<h2 id=\"parameters\">Parameters</h2>\n<table>";
   for (const auto& [k, v] : case_json["parameters"].items())
@@ -734,6 +782,11 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
   h += "<tr><th>sensor</th><td>" + esc(case_json.value("sensor", json::object()).dump()) + "</td></tr>";
   h += "</table>\n";
 
+  return h;
+}
+
+std::string log_section(const fs::path& root) {
+  std::string h;
   // Processing log
   h += "<h2 id=\"log\">Processing log</h2>\n<table><tr><th>#</th><th>time (UTC)</th><th>step</th>"
        "<th>duration (s)</th><th>parameters</th><th>line sha256</th></tr>";
@@ -757,6 +810,13 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
   }
   h += "</table>\n";
 
+  return h;
+}
+
+std::string hashes_section(const ReportInputs& r) {
+  std::string h;
+  const fs::path& root = r.root;
+  const json& in = r.case_json["inputs"];
   // Hashes: an appendix headed by the two hashes that cover everything (the manifest lists
   // every output's hash, the log head anchors the history); the inputs, often thousands of
   // frames, in compact columns (their full hashes are in case.json, itself in the manifest).
@@ -792,25 +852,17 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
       h += fmt::format("{} {}<br>", esc(f.value("sha256", "").substr(0, 16)), esc(f.value("path", "")));
     h += "</div>\n";
   }
-  h += "</body></html>\n";
+  return h;
+}
 
-  ReportResult result;
-  result.html = folder.path("report/report.html");
-  {
-    AtomicFile f(result.html, false);
-    f.stream() << h;
-    f.commit();
-  }
-  if (!o.pdf) {
-    result.pdf_note = "PDF not requested";
-    fs::remove(root / "report" / "report.pdf");
-    return result;
-  }
+// report.pdf from report.html through headless Chromium, when one is installed; a missing or
+// failing Chromium leaves a note, never a half-written PDF.
+void print_pdf(const fs::path& root, ReportResult& result) {
   const fs::path chromium = find_chromium();
   if (chromium.empty()) {
     result.pdf_note = "warning: no Chromium found (chromium, chromium-browser, google-chrome or "
                       "$LOCARD_CHROMIUM); report.pdf was not written - print report.html instead";
-    return result;
+    return;
   }
   const fs::path pdf = root / "report" / "report.pdf";
   const fs::path tmp_pdf = root / "report" / ".report.pdf.tmp";
@@ -834,6 +886,55 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
                                   "{}); report.html is complete",
                                   chromium.string(), status, log.string());
   }
+}
+
+}  // namespace
+
+ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o) {
+  ReportInputs r;
+  r.root = folder.root();
+  const fs::path& root = r.root;
+  r.case_json = read_json_or_null(root / "case.json");
+  if (r.case_json.is_null()) throw_input_error(root / "case.json", "missing or not JSON");
+  const TriangleMesh mesh = folder.load_mesh();
+  const Raycaster rc(mesh);
+  r.trajectory = read_tum_trajectory(root / "alignment" / "trajectory.txt");
+  r.markers = read_json_or_null(root / "evidence" / "markers.json");
+  r.metadata = read_case_metadata(folder);
+  r.analyses = read_json_or_null(root / "trajectories" / "analyses.json");
+  const Vector3d up = report_up(r);
+
+  std::string h = report_opening(r, o);
+  h += summary_section(r);
+  const TopView top = render_top_view(mesh, rc, up, o.render_width, o.render_width * 3 / 4);
+  const std::string top_uri = png_data_uri(top.image);  // drawn on by every plan below
+  h += views_section(mesh, rc, up, top_uri, r.trajectory, o);
+  h += stage_errors_section(r);
+  h += trajectory_plot_section(r, top, top_uri);
+  h += coverage_section(root, top, top_uri);
+  h += table_one_section(root);
+  h += floor_plan_section(root, top, top_uri);
+  h += evidence_section(r.markers);
+  h += trajectories_section(r.analyses);
+  h += simulations_section(root);
+  h += parameters_section(r.case_json);
+  h += log_section(root);
+  h += hashes_section(r);
+  h += "</body></html>\n";
+
+  ReportResult result;
+  result.html = folder.path("report/report.html");
+  {
+    AtomicFile f(result.html, false);
+    f.stream() << h;
+    f.commit();
+  }
+  if (!o.pdf) {
+    result.pdf_note = "PDF not requested";
+    fs::remove(root / "report" / "report.pdf");
+    return result;
+  }
+  print_pdf(root, result);
   return result;
 }
 

@@ -8,7 +8,7 @@
 
 #include <locard/core/error.hpp>
 #include <locard/forensics/measurement.hpp>
-#include <locard/sim/raycaster.hpp>
+#include <locard/core/raycaster.hpp>
 
 #include <Eigen/Eigenvalues>
 #include <fmt/format.h>
@@ -25,10 +25,10 @@ using nlohmann::json;
 
 constexpr double kDeg = 180.0 / M_PI;
 
-SurfaceHit cast(const sim::Raycaster& rc, const TriangleMesh& mesh, const Vector3d& from,
+SurfaceHit cast(const Raycaster& rc, const TriangleMesh& mesh, const Vector3d& from,
                 const Vector3d& dir, const TrajectoryInput& in) {
   SurfaceHit h;
-  const sim::RayHit r = rc.intersect(from.cast<float>(), dir.cast<float>(),
+  const RayHit r = rc.intersect(from.cast<float>(), dir.cast<float>(),
                                      static_cast<float>(in.min_gap_m),
                                      static_cast<float>(in.max_range_m));
   if (!r.hit()) return h;
@@ -45,7 +45,7 @@ SurfaceHit cast(const sim::Raycaster& rc, const TriangleMesh& mesh, const Vector
   return h;
 }
 
-TrajectoryAnalysis analyse(const sim::Raycaster* rc, const TriangleMesh* mesh,
+TrajectoryAnalysis analyse(const Raycaster* rc, const TriangleMesh* mesh,
                            const CaseModel* model, const TrajectoryInput& in) {
   if (in.points.size() < 2) throw InputError("a trajectory needs at least two points");
   for (const Vector3d& p : in.points)
@@ -150,7 +150,7 @@ TrajectoryAnalysis analyse_trajectory(const CaseModel* model, const TrajectoryIn
 }
 
 TrajectoryAnalysis analyse_trajectory(const TriangleMesh& mesh, const TrajectoryInput& input) {
-  const sim::Raycaster rc(mesh);
+  const Raycaster rc(mesh);
   return analyse(&rc, &mesh, nullptr, input);
 }
 

@@ -156,6 +156,117 @@ void check_options(const RansacOptions& o) {
   if (o.refine_iterations < 0) bad("refine_iterations must be >= 0");
 }
 
+// --- hypotheses, in fixed blocks: the best candidate (invalid when none passed the checks);
+// counts drawn and checked hypotheses into the result.
+Candidate draw_hypotheses(const Problem& p, const RansacOptions& options, RansacResult& result) {
+  const std::size_t K = p.source.size();
+  Candidate best;
+  std::size_t needed = options.max_iterations;
+  std::size_t drawn = 0;
+  std::size_t block_size = kRansacFirstBlock;
+  while (drawn < needed) {
+    const std::size_t begin = drawn;
+    const std::size_t end = std::min(begin + block_size, options.max_iterations);
+    block_size = std::min(2 * block_size, kRansacBlock);
+    const BlockOutcome block = tbb::parallel_reduce(
+        tbb::blocked_range<std::size_t>(begin, end, 16), BlockOutcome{},
+        [&](const tbb::blocked_range<std::size_t>& r, BlockOutcome acc) {
+          for (std::size_t h = r.begin(); h != r.end(); ++h) {
+            Candidate c = run_hypothesis(p, options, h);
+            if (!c.valid()) continue;
+            ++acc.checked;
+            if (c.better_than(acc.best)) acc.best = c;
+          }
+          return acc;
+        },
+        [](BlockOutcome a, const BlockOutcome& b) {
+          a.checked += b.checked;
+          if (b.best.better_than(a.best)) a.best = b.best;
+          return a;
+        });
+    drawn = end;
+    result.hypotheses_checked += block.checked;
+    if (block.best.better_than(best)) best = block.best;
+    if (best.valid())
+      needed = std::min(needed, required_hypotheses(static_cast<double>(best.inliers) / K,
+                                                    options.confidence,
+                                                    options.max_iterations));
+  }
+  result.hypotheses = drawn;
+  return best;
+}
+
+// --- polish: Kabsch on the inliers, re-select, repeat (while the inliers do not shrink and
+// still change). Returns the polished pose; `inliers` its inlier correspondences.
+Isometry3d polish(const Problem& p, const Isometry3d& T_start, int refine_iterations,
+                  std::vector<std::uint32_t>& inliers) {
+  Isometry3d T_c = T_start;
+  std::vector<std::uint32_t> previous;
+  const std::size_t K = p.source.size();
+  const auto select_inliers = [&](const Isometry3d& T, std::vector<std::uint32_t>& out) {
+    out.clear();
+    for (std::uint32_t i = 0; i < K; ++i)
+      if ((T * p.source[i] - p.target[i]).squaredNorm() <= p.threshold_sq) out.push_back(i);
+  };
+  select_inliers(T_c, inliers);
+  for (int it = 0; it < refine_iterations; ++it) {
+    std::vector<Eigen::Vector3d> s, t;
+    s.reserve(inliers.size());
+    t.reserve(inliers.size());
+    for (const std::uint32_t i : inliers) {
+      s.push_back(p.source[i]);
+      t.push_back(p.target[i]);
+    }
+    const auto T = estimate_rigid_transform(s, t);
+    if (!T) break;
+    std::vector<std::uint32_t> next;
+    select_inliers(*T, next);
+    if (next.size() < inliers.size()) break;  // keep the better estimate
+    T_c = *T;
+    previous.swap(inliers);
+    inliers.swap(next);
+    if (inliers == previous) break;
+  }
+  return T_c;
+}
+
+struct Fit {
+  std::size_t count = 0;
+  double sse = 0.0;
+};
+
+// --- fitness of the whole source cloud against the target cloud (both centred: cs, ct): the
+// source points with a target point within max_distance under T_c, and their squared errors.
+Fit cloud_fitness(const PointCloud& source, const PointCloud& target, const Eigen::Vector3d& cs,
+                  const Eigen::Vector3d& ct, const Isometry3d& T_c, std::size_t target_finite,
+                  double max_distance) {
+  std::vector<Eigen::Vector3f> tpts;
+  tpts.reserve(target_finite);
+  for (const auto& q : target.positions)
+    if (q.allFinite()) tpts.push_back((q.cast<double>() - ct).cast<float>());
+  const KdTree tree(std::move(tpts));
+  const float max_d = static_cast<float>(max_distance);
+  return tbb::parallel_deterministic_reduce(
+      tbb::blocked_range<std::size_t>(0, source.size(), 1024), Fit{},
+      [&](const tbb::blocked_range<std::size_t>& r, Fit acc) {
+        Neighbor nb;
+        for (std::size_t i = r.begin(); i != r.end(); ++i) {
+          const Eigen::Vector3f& sp = source.positions[i];
+          if (!sp.allFinite()) continue;
+          const Eigen::Vector3d q = T_c * (sp.cast<double>() - cs);
+          if (!tree.nearest(q.cast<float>(), nb, max_d)) continue;
+          ++acc.count;
+          acc.sse += (q - tree.points()[nb.index].cast<double>()).squaredNorm();
+        }
+        return acc;
+      },
+      [](Fit a, const Fit& b) {
+        a.count += b.count;
+        a.sse += b.sse;
+        return a;
+      });
+}
+
 }  // namespace
 
 RansacResult ransac_registration(const PointCloud& source, const PointCloud& target,
@@ -214,40 +325,8 @@ RansacResult ransac_registration(const PointCloud& source, const PointCloud& tar
     return result;
   }
 
-  // --- hypotheses, in fixed blocks --------------------------------------------------------
-  Candidate best;
-  std::size_t needed = options.max_iterations;
-  std::size_t drawn = 0;
-  std::size_t block_size = kRansacFirstBlock;
-  while (drawn < needed) {
-    const std::size_t begin = drawn;
-    const std::size_t end = std::min(begin + block_size, options.max_iterations);
-    block_size = std::min(2 * block_size, kRansacBlock);
-    const BlockOutcome block = tbb::parallel_reduce(
-        tbb::blocked_range<std::size_t>(begin, end, 16), BlockOutcome{},
-        [&](const tbb::blocked_range<std::size_t>& r, BlockOutcome acc) {
-          for (std::size_t h = r.begin(); h != r.end(); ++h) {
-            Candidate c = run_hypothesis(p, options, h);
-            if (!c.valid()) continue;
-            ++acc.checked;
-            if (c.better_than(acc.best)) acc.best = c;
-          }
-          return acc;
-        },
-        [](BlockOutcome a, const BlockOutcome& b) {
-          a.checked += b.checked;
-          if (b.best.better_than(a.best)) a.best = b.best;
-          return a;
-        });
-    drawn = end;
-    result.hypotheses_checked += block.checked;
-    if (block.best.better_than(best)) best = block.best;
-    if (best.valid())
-      needed = std::min(needed, required_hypotheses(static_cast<double>(best.inliers) / K,
-                                                    options.confidence,
-                                                    options.max_iterations));
-  }
-  result.hypotheses = drawn;
+  const Candidate best = draw_hypotheses(p, options, result);
+  const std::size_t drawn = result.hypotheses;
   if (!best.valid()) {
     result.reason = fmt::format(
         "none of {} hypotheses passed the edge-length and distance checks: the "
@@ -257,67 +336,14 @@ RansacResult ransac_registration(const PointCloud& source, const PointCloud& tar
   }
   result.best_hypothesis = best.hypothesis;
 
-  // --- polish: Kabsch on the inliers, re-select, repeat ------------------------------------
-  Isometry3d T_c = best.T;
-  std::vector<std::uint32_t> inliers, previous;
-  const auto select_inliers = [&](const Isometry3d& T, std::vector<std::uint32_t>& out) {
-    out.clear();
-    for (std::uint32_t i = 0; i < K; ++i)
-      if ((T * p.source[i] - p.target[i]).squaredNorm() <= p.threshold_sq) out.push_back(i);
-  };
-  select_inliers(T_c, inliers);
-  for (int it = 0; it < options.refine_iterations; ++it) {
-    std::vector<Eigen::Vector3d> s, t;
-    s.reserve(inliers.size());
-    t.reserve(inliers.size());
-    for (const std::uint32_t i : inliers) {
-      s.push_back(p.source[i]);
-      t.push_back(p.target[i]);
-    }
-    const auto T = estimate_rigid_transform(s, t);
-    if (!T) break;
-    std::vector<std::uint32_t> next;
-    select_inliers(*T, next);
-    if (next.size() < inliers.size()) break;  // keep the better estimate
-    T_c = *T;
-    previous.swap(inliers);
-    inliers.swap(next);
-    if (inliers == previous) break;
-  }
+  std::vector<std::uint32_t> inliers;
+  const Isometry3d T_c = polish(p, best.T, options.refine_iterations, inliers);
   result.inlier_correspondences = inliers.size();
   result.inlier_ratio = static_cast<double>(inliers.size()) / static_cast<double>(K);
   result.T_target_source = to_world(T_c);
 
-  // --- fitness of the whole source cloud against the target cloud --------------------------
-  std::vector<Eigen::Vector3f> tpts;
-  tpts.reserve(target_finite);
-  for (const auto& q : target.positions)
-    if (q.allFinite()) tpts.push_back((q.cast<double>() - ct).cast<float>());
-  const KdTree tree(std::move(tpts));
-  const float max_d = static_cast<float>(options.max_correspondence_distance);
-  struct Fit {
-    std::size_t count = 0;
-    double sse = 0.0;
-  };
-  const Fit fit = tbb::parallel_deterministic_reduce(
-      tbb::blocked_range<std::size_t>(0, source.size(), 1024), Fit{},
-      [&](const tbb::blocked_range<std::size_t>& r, Fit acc) {
-        Neighbor nb;
-        for (std::size_t i = r.begin(); i != r.end(); ++i) {
-          const Eigen::Vector3f& sp = source.positions[i];
-          if (!sp.allFinite()) continue;
-          const Eigen::Vector3d q = T_c * (sp.cast<double>() - cs);
-          if (!tree.nearest(q.cast<float>(), nb, max_d)) continue;
-          ++acc.count;
-          acc.sse += (q - tree.points()[nb.index].cast<double>()).squaredNorm();
-        }
-        return acc;
-      },
-      [](Fit a, const Fit& b) {
-        a.count += b.count;
-        a.sse += b.sse;
-        return a;
-      });
+  const Fit fit = cloud_fitness(source, target, cs, ct, T_c, target_finite,
+                                options.max_correspondence_distance);
   result.cloud_correspondences = fit.count;
   result.fitness = static_cast<double>(fit.count) / static_cast<double>(source_finite);
   result.inlier_rmse = fit.count ? std::sqrt(fit.sse / static_cast<double>(fit.count)) : 0.0;

@@ -1,5 +1,6 @@
 #include <locard/sim/kinect_model.hpp>
 
+#include <locard/core/depth_noise.hpp>
 #include <locard/core/error.hpp>
 #include <locard/sim/counter_rng.hpp>
 
@@ -98,21 +99,10 @@ bool KinectModel::lateral_noise() const {
 }
 
 double KinectModel::axial_sigma_m(double z_m, double incidence_rad) const {
-  const double theta = std::clamp(incidence_rad, 0.0, grazing_dropout_full_deg * kDegToRad);
-  const double rest = 0.5 * std::numbers::pi - theta;
-  const double grazing = theta * theta / (rest * rest);
+  const double max_incidence = grazing_dropout_full_deg * kDegToRad;
   switch (sensor) {
-    case ScannerModel::KinectV2: {
-      // Fankhauser et al. 2015, eq. for sigma_z (indoor): millimetres for z in metres.
-      const double sigma_mm =
-          1.5 - 0.5 * z_m + 0.3 * z_m * z_m + 0.1 * z_m * std::sqrt(z_m) * grazing;
-      return 1e-3 * sigma_mm;
-    }
-    case ScannerModel::KinectV1: {
-      // Khoshelham & Elberink 2012 / Nguyen et al. 2012, metres.
-      const double d = z_m - 0.4;
-      return 0.0012 + 0.0019 * d * d + 0.0001 / std::sqrt(std::max(z_m, 1e-3)) * grazing;
-    }
+    case ScannerModel::KinectV2: return time_of_flight_axial_sigma_m(z_m, incidence_rad, max_incidence);
+    case ScannerModel::KinectV1: return structured_light_axial_sigma_m(z_m, incidence_rad, max_incidence);
   }
   return 0.0;
 }

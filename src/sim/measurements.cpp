@@ -1,7 +1,7 @@
 #include <locard/sim/measurements.hpp>
 
 #include <locard/core/atomic_file.hpp>
-#include <locard/sim/raycaster.hpp>
+#include <locard/core/raycaster.hpp>
 #include <locard/sim/scan_protocol.hpp>
 #include <locard/sim/scene_mesh.hpp>
 

@@ -5,7 +5,7 @@
 #include <locard/core/camera_intrinsics.hpp>
 #include <locard/sim/scan_protocol.hpp>
 #include <locard/sim/scene_mesh.hpp>
-#include <locard/sim/raycaster.hpp>
+#include <locard/core/raycaster.hpp>
 
 #include <gtest/gtest.h>
 

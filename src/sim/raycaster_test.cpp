@@ -1,6 +1,6 @@
 // Ray casting: exact z-depth on planes at known distances (every pixel, off-centre included),
 // and Embree's hits against a brute-force oracle on the bedroom mesh.
-#include <locard/sim/raycaster.hpp>
+#include <locard/core/raycaster.hpp>
 #include <locard/sim/scan_protocol.hpp>
 #include <locard/sim/scene_mesh.hpp>
 #include <locard/sim/view_renderer.hpp>

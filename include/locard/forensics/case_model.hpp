@@ -23,7 +23,7 @@
 #include <string>
 #include <vector>
 
-namespace locard::sim {
+namespace locard {
 class Raycaster;
 }
 
@@ -81,7 +81,7 @@ class CaseModel {
   CaseModel& operator=(CaseModel&&) noexcept;
 
   const TriangleMesh& mesh() const;
-  const sim::Raycaster& raycaster() const;
+  const Raycaster& raycaster() const;
   const std::vector<ViewRecord>& views() const;
   const CameraIntrinsics& intrinsics() const;
   const SensorNoiseModel& noise() const;

@@ -12,6 +12,7 @@
 // from node k moves by  [-[p]x  I] delta,  so its covariance is J Sigma_k J^T.
 
 #include <locard/alignment/pose_graph.hpp>
+#include <locard/alignment/sequential_alignment.hpp>
 
 #include <vector>
 
@@ -21,5 +22,23 @@ namespace locard::forensics {
 std::vector<Matrix6d> pose_covariances(const PoseGraph& graph,
                                        const std::vector<double>& residual_sigma_m,
                                        std::size_t fixed_node = 0);
+
+// Every node's covariance for an aligned sequence, as a case records it.
+//   sigmas: per edge, the residual sigma: the larger inlier RMSE of its two views' registrations,
+//           at least `noise_floor_sigma_m` (the sensor's axial noise at a typical range);
+//   variance_factor: the a posteriori variance factor of a least-squares adjustment, the
+//           weighted chi2 of the kept edges over the redundancy (6 per edge - 6 per free node),
+//           at least 1. Above 1 the registrations disagree more than their stated precision and
+//           every covariance is inflated by it. Judged at the pose graph's own optimum
+//           (AlignmentResult::refinement.graph_optimum when there is one): the joint refinement
+//           moves poses off the tracking edges on purpose, which would read as the edges
+//           disagreeing.
+struct ViewCovariances {
+  std::vector<double> sigmas;          // per edge of result.graph
+  std::vector<Matrix6d> covariances;   // per node, already multiplied by variance_factor
+  double variance_factor = 1.0;
+};
+ViewCovariances view_covariances(const AlignmentResult& result, double noise_floor_sigma_m,
+                                 std::size_t fixed_node);
 
 }  // namespace locard::forensics

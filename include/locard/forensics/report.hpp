@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-namespace locard::sim {
+namespace locard {
 class Raycaster;
 }
 
@@ -25,7 +25,7 @@ class CaseFolder;
 
 // Ray-cast view of a coloured mesh (Embree), headlight Lambert shading times vertex colour,
 // white background. `eye` looks at `target`, `up` the world up, vertical field of view fov_deg.
-ColorImage render_mesh_view(const TriangleMesh& mesh, const sim::Raycaster& raycaster,
+ColorImage render_mesh_view(const TriangleMesh& mesh, const Raycaster& raycaster,
                             const Eigen::Vector3d& eye, const Eigen::Vector3d& target,
                             const Eigen::Vector3d& up, double fov_deg, int width, int height);
 // PNG bytes (libpng) and a data: URI of them.

@@ -1,7 +1,8 @@
 #pragma once
-// `locard simulate CASE_DIR SCENARIO.json`: runs a scenario against the case's mesh and writes
+// What a simulation run leaves on disk, knowing nothing of cases (forensics/case_simulation.hpp
+// records a run in a case):
 //
-//   CASE_DIR/simulations/<scenario name>/
+//   <folder>/
 //     scenario.json   the scenario file, byte for byte
 //     events.json     {"label": "illustrative simulation, not measured data", the effective
 //                      settings, the mesh's path and SHA-256, the bodies, "events" (launch,
@@ -10,43 +11,23 @@
 //                      give the same bytes
 //     animation.glb   physics_gltf.hpp
 //
-// The folder appears complete or not at all (files written into a hidden temporary folder,
-// then renamed), and an existing one is replaced only with force. When CASE_DIR is a Locard
-// case (case.json + manifest.json), the step is appended to log.jsonl and manifest.json is
-// rewritten (forensics::CaseFolder); a bare folder holding mesh/mesh.ply is simulated too, with
-// nothing logged (SimulateSummary::logged says which).
+// The folder appears complete or not at all (files written into a hidden temporary folder
+// beside it, then renamed); an existing one is replaced.
 
 #include <locard/sim/physics_scenario.hpp>
 #include <locard/sim/physics_world.hpp>
 
-#include <cstdint>
 #include <filesystem>
-#include <optional>
 #include <string>
 
 namespace locard::sim {
-
-struct SimulateOptions {
-  bool force = false;
-  std::optional<std::uint64_t> seed;   // override the scenario's
-  std::optional<double> duration;      // s
-  std::optional<double> fps;
-};
-
-struct SimulateSummary {
-  std::filesystem::path folder;  // CASE_DIR/simulations/<name>
-  Scenario scenario;             // as run (overrides applied)
-  SimulationResult result;
-  double wall_seconds = 0.0;     // the physics alone
-  bool logged = false;           // appended to the case's log.jsonl
-};
 
 // events.json's text for a run. `mesh_path` and `mesh_sha256` identify the mesh used.
 std::string events_json(const Scenario& scenario, const SimulationResult& result,
                         const std::string& mesh_path, const std::string& mesh_sha256);
 
-SimulateSummary simulate_case(const std::filesystem::path& case_dir,
-                              const std::filesystem::path& scenario_path,
-                              const SimulateOptions& options = {});
+// Writes the three files of a run into `folder` (see above); `events` is events_json's text.
+void write_simulation_folder(const std::filesystem::path& folder, const Scenario& scenario,
+                             const SimulationResult& result, const std::string& events);
 
 }  // namespace locard::sim

@@ -6,7 +6,7 @@
 #include <locard/core/image.hpp>
 #include <locard/core/pose.hpp>
 #include <locard/sim/kinect_model.hpp>
-#include <locard/sim/raycaster.hpp>
+#include <locard/core/raycaster.hpp>
 #include <locard/sim/scene_mesh.hpp>
 
 #include <Eigen/Core>

@@ -1,4 +1,4 @@
-#include <locard/sim/raycaster.hpp>
+#include <locard/core/raycaster.hpp>
 
 #include <locard/core/error.hpp>
 
@@ -9,7 +9,7 @@
 #include <limits>
 #include <string>
 
-namespace locard::sim {
+namespace locard {
 namespace {
 
 std::string embree_error_name(RTCError code) {
@@ -163,4 +163,4 @@ RayHit Raycaster::intersect(const Eigen::Vector3f& origin, const Eigen::Vector3f
   return hit;
 }
 
-}  // namespace locard::sim
+}  // namespace locard

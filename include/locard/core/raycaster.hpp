@@ -11,7 +11,7 @@
 #include <memory>
 #include <vector>
 
-namespace locard::sim {
+namespace locard {
 
 struct RayHit {
   static constexpr std::uint32_t kNoTriangle = std::numeric_limits<std::uint32_t>::max();
@@ -54,4 +54,4 @@ class Raycaster {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace locard::sim
+}  // namespace locard
