@@ -27,6 +27,7 @@
 #include <locard/io/stanford_conf.hpp>
 #include <locard/io/trajectory_io.hpp>
 #include <locard/preprocess/voxel_grid.hpp>
+#include <locard/io/matrix_json.hpp>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -65,23 +66,6 @@ struct AlignCliOptions {
   bool force = false;
 };
 
-nlohmann::json pose_json(const Isometry3d& T) {
-  nlohmann::json rows = nlohmann::json::array();
-  for (int r = 0; r < 4; ++r)
-    rows.push_back({T.matrix()(r, 0), T.matrix()(r, 1), T.matrix()(r, 2), T.matrix()(r, 3)});
-  return rows;
-}
-
-nlohmann::json info_json(const Matrix6d& m) {
-  nlohmann::json rows = nlohmann::json::array();
-  for (int r = 0; r < 6; ++r) {
-    nlohmann::json row = nlohmann::json::array();
-    for (int c = 0; c < 6; ++c) row.push_back(m(r, c));
-    rows.push_back(row);
-  }
-  return rows;
-}
-
 nlohmann::json edge_json(const PoseGraphEdge& e, const AlignmentResult& r) {
   return {{"source_frame", r.frames[r.node_frames[e.source]].frame_index},
           {"target_frame", r.frames[r.node_frames[e.target]].frame_index},
@@ -89,7 +73,7 @@ nlohmann::json edge_json(const PoseGraphEdge& e, const AlignmentResult& r) {
           {"target_node", e.target},
           {"kind", e.uncertain ? "loop" : "odometry"},
           {"T_target_source", pose_json(e.T_target_source)},
-          {"information", info_json(e.information)},
+          {"information", matrix_json(e.information)},
           {"line_process_weight", e.confidence},
           {"chi2", e.chi2}};
 }

@@ -54,9 +54,14 @@ int run_reconstruct(const ReconstructCli& o, const GlobalOptions& global) {
   if (o.mesh_voxel) p.mesh_voxel_m = *o.mesh_voxel;
   if (o.frames) p.max_frames = *o.frames;
   if (o.seed) p.seed = *o.seed;
-  if (o.mode) p.mode = *o.mode;
-  if (o.scan_poses) p.scan_poses = *o.scan_poses;
-  if (o.up) p.up = *o.up;
+  if (o.mode) {
+    const auto mode = parse_alignment_mode(*o.mode);
+    if (!mode) throw InputError(fmt::format("--mode must be cumulative or odometry, got '{}'", *o.mode));
+    p.mode = *mode;
+  }
+  // --scan-poses and --up are checked against their names by CLI11.
+  if (o.scan_poses) p.scan_poses = fx::parse_scan_pose_source(*o.scan_poses).value();
+  if (o.up) p.up = parse_up_axis(*o.up).value();
   if (o.no_pdf) p.pdf = false;
 
   const bool show = ProgressBar::should_show(global.quiet);

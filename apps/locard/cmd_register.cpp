@@ -14,6 +14,7 @@
 #include <locard/io/point_cloud_io.hpp>
 #include <locard/registration/global_registration.hpp>
 #include <locard/registration/icp.hpp>
+#include <locard/io/matrix_json.hpp>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -96,16 +97,6 @@ std::string matrix_text(const Isometry3d& T, const char* indent) {
     out += fmt::format("{}{: .9f} {: .9f} {: .9f} {: .9f}\n", indent, T.matrix()(r, 0),
                        T.matrix()(r, 1), T.matrix()(r, 2), T.matrix()(r, 3));
   return out;
-}
-
-nlohmann::json matrix_json(const Eigen::MatrixXd& m) {
-  nlohmann::json rows = nlohmann::json::array();
-  for (Eigen::Index r = 0; r < m.rows(); ++r) {
-    nlohmann::json row = nlohmann::json::array();
-    for (Eigen::Index c = 0; c < m.cols(); ++c) row.push_back(m(r, c));
-    rows.push_back(row);
-  }
-  return rows;
 }
 
 // Largest extent of the finite points' bounding box (0 when there are none).

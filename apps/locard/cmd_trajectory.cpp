@@ -39,26 +39,16 @@ int run_trajectory(const TrajectoryCli& o) {
   in.point_sigma_m = o.sigma;
   for (const std::string& p : o.points) in.points.push_back(parse_case_point(p, markers, o.frame));
   const fx::CaseModel model = fx::CaseModel::load(folder);
-  const fx::TrajectoryAnalysis a = fx::analyse_trajectory(&model, in);
-  std::vector<fx::TrajectoryAnalysis> all =
-      fx::read_trajectory_analyses(folder.root() / "trajectories" / "analyses.json");
-  for (const auto& existing : all)
-    if (existing.name == a.name)
-      throw InputError(fmt::format("a trajectory named '{}' exists already in this case", a.name));
-  all.push_back(a);
-  fx::CaseChange change(folder, {"trajectories/analyses.json", "trajectories/analyses.csv"});
-  fx::write_trajectory_analyses(folder.path("trajectories/analyses.json"), all);
-  fx::LogStep s;
-  s.step = "trajectory";
-  s.parameters_json = nlohmann::json{{"name", o.name},
-                                     {"points", o.points},
-                                     {"points_frame", o.frame == PointFrame::Case ? "case" : "world"},
-                                     {"sigma_m", o.sigma}}
-                          .dump();
-  s.duration_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  s.inputs = {"mesh/mesh.ply"};
-  s.outputs = {"trajectories/analyses.json", "trajectories/analyses.csv"};
-  change.commit(s);
+  const fx::TrajectoryAnalysis a =
+      fx::record_trajectory_analysis(
+          folder, fx::analyse_trajectory(&model, in),
+          nlohmann::json{{"name", o.name},
+                         {"points", o.points},
+                         {"points_frame", o.frame == PointFrame::Case ? "case" : "world"},
+                         {"sigma_m", o.sigma}}
+              .dump(),
+          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count())
+          .analysis;
   if (!o.no_report) fx::refresh_case_report(folder);
   // Printed once everything is saved: not a receipt for a failed save.
   fmt::print("{}: horizontal {:.2f} deg, vertical {:.2f} deg, cone half-angle {:.2f} deg (k=2)\n",

@@ -7,6 +7,7 @@
 
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 namespace locard {
 namespace {
@@ -56,13 +57,14 @@ TEST(AlignmentDefaults, EveryTraitCombination) {
         EXPECT_EQ(o.stride, plain.stride);
         EXPECT_DOUBLE_EQ(o.min_verified_share, plain.min_verified_share);
 
-        // reconstruct's parameters take the same values, as text for case.json.
+        // reconstruct's parameters take the same values, and case.json names them.
         const auto p = forensics::ReconstructParameters::defaults_for(t);
-        EXPECT_EQ(p.mode, to_string(o.mode));
-        EXPECT_EQ(p.odometry_icp, to_string(o.odometry_method));
+        EXPECT_EQ(p.mode, o.mode);
+        EXPECT_EQ(p.odometry_icp, o.odometry_method);
         EXPECT_DOUBLE_EQ(p.max_depth_m, o.max_depth_m);
-        EXPECT_EQ(parse_alignment_mode(p.mode), o.mode);
-        EXPECT_EQ(parse_icp_method(p.odometry_icp), o.odometry_method);
+        const auto j = nlohmann::json::parse(p.to_json());
+        EXPECT_EQ(parse_alignment_mode(j.at("mode").get<std::string>()), o.mode);
+        EXPECT_EQ(parse_icp_method(j.at("odometry_icp").get<std::string>()), o.odometry_method);
       }
 }
 

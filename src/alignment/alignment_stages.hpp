@@ -10,6 +10,7 @@
 //   check_views      every registered view tested against the others' model (5)
 // Each stage reads what the earlier ones wrote and adds its own part; none reaches back.
 #include <locard/alignment/sequential_alignment.hpp>
+#include <locard/core/disjoint_sets.hpp>
 #include <locard/core/kdtree.hpp>
 #include <locard/registration/global_registration.hpp>
 #include <locard/registration/icp.hpp>
@@ -121,12 +122,7 @@ TrackedView register_tripod_view(const AlignmentState& s, const Target& model, s
 Eigen::Vector3d forward(const Isometry3d& T);
 double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b);
 
-// Union-find over node indices.
-struct Components {
-  std::vector<std::size_t> parent;
-  explicit Components(std::size_t n);
-  std::size_t find(std::size_t x);
-  void join(std::size_t a, std::size_t b);
-};
+// Union-find over node indices (core/disjoint_sets.hpp).
+using Components = DisjointSets;
 
 }  // namespace locard::alignment_detail

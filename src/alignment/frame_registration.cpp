@@ -154,19 +154,5 @@ double angle_deg(const Eigen::Vector3d& a, const Eigen::Vector3d& b) {
   return std::acos(std::clamp(a.dot(b), -1.0, 1.0)) * 180.0 / M_PI;
 }
 
-Components::Components(std::size_t n) : parent(n) {
-  std::iota(parent.begin(), parent.end(), 0);
-}
-
-std::size_t Components::find(std::size_t x) {
-  while (parent[x] != x) x = parent[x] = parent[parent[x]];
-  return x;
-}
-
-void Components::join(std::size_t a, std::size_t b) {
-  a = find(a);
-  b = find(b);
-  if (a != b) parent[std::max(a, b)] = std::min(a, b);
-}
 
 }  // namespace locard::alignment_detail

@@ -123,7 +123,7 @@ void solve_graph(AlignmentState& s) {
   }
   // Solve each connected component with its first node fixed.
   Components components(reg.size());
-  for (const PoseGraphEdge& e : result.graph.edges) components.join(e.source, e.target);
+  for (const PoseGraphEdge& e : result.graph.edges) components.unite(e.source, e.target);
   std::map<std::size_t, std::vector<std::size_t>> members;
   for (std::size_t k = 0; k < reg.size(); ++k) members[components.find(k)].push_back(k);
   PoseGraph solved;
@@ -196,7 +196,7 @@ void solve_graph(AlignmentState& s) {
 
   // Pieces after loop closure: connected components of the kept graph, numbered by first frame.
   Components kept(reg.size());
-  for (const PoseGraphEdge& e : result.graph.edges) kept.join(e.source, e.target);
+  for (const PoseGraphEdge& e : result.graph.edges) kept.unite(e.source, e.target);
   std::map<std::size_t, std::size_t> piece_id;
   for (std::size_t k = 0; k < reg.size(); ++k) {
     auto [it, inserted] = piece_id.emplace(kept.find(k), piece_id.size());

@@ -53,7 +53,7 @@ std::vector<LoopCandidate> proximity_candidates(const AlignmentState& s,
       LoopCandidate c;
       c.source = j;
       c.target = i;
-      c.found_by = "proximity";
+      c.found_by = LoopSource::Proximity;
       c.T_target_source = Ti.inverse() * Tj;
       mine.emplace_back(d / o.loop_max_distance_m + ang / o.loop_max_angle_deg, c);
     }
@@ -105,7 +105,7 @@ void propose_loops(AlignmentState& s) {
     LoopCandidate c;
     c.source = j;
     c.target = i;
-    c.found_by = "features";
+    c.found_by = LoopSource::Features;
     s.candidates.push_back(std::move(c));
   }
 }
@@ -122,8 +122,8 @@ void verify_loops(AlignmentState& s) {
     tgt.fine = s.prepared[c.target].cloud;
     tgt.coarse = s.prepared[c.target].coarse;
     std::optional<IcpResult> best;
-    if (c.found_by == "proximity") best = refine(src, src_coarse, tgt, c.T_target_source, o, method);
-    if (c.found_by == "features") {
+    if (c.found_by == LoopSource::Proximity) best = refine(src, src_coarse, tgt, c.T_target_source, o, method);
+    if (c.found_by == LoopSource::Features) {
       const auto g =
           features(src, tgt.fine, Eigen::Vector3f::Zero(), o, 1000003 * c.source + c.target);
       if (!g.ransac.success) {

@@ -2,6 +2,7 @@
 // its numbered steps). Each step is a function over ScanAlignmentState.
 #include <locard/alignment/scan_alignment.hpp>
 
+#include <locard/core/disjoint_sets.hpp>
 #include <locard/core/error.hpp>
 #include <locard/core/kdtree.hpp>
 #include <locard/preprocess/normals.hpp>
@@ -52,12 +53,6 @@ IcpResult icp_gates(const PointCloud& source, const PointCloud& target, const Is
   }
   r.iterations = iterations;
   return r;
-}
-
-// Union-find over scan indices.
-std::size_t find_root(std::vector<std::size_t>& parent, std::size_t x) {
-  while (parent[x] != x) x = parent[x] = parent[parent[x]];
-  return x;
 }
 
 void check_inputs(const std::vector<PointCloud>& scans, const ScanAlignmentOptions& o,
@@ -164,15 +159,11 @@ void register_pairs(ScanAlignmentState& s) {
 // The root: the lowest index of the largest set the verified pairs connect.
 std::size_t choose_root(const ScanAlignmentState& s) {
   const std::size_t n = s.clouds.size();
-  std::vector<std::size_t> parent(n);
-  std::iota(parent.begin(), parent.end(), 0);
+  DisjointSets sets(n);
   for (const ScanPair& p : s.result.pairs)
-    if (p.verified) {
-      const std::size_t a = find_root(parent, p.source), b = find_root(parent, p.target);
-      parent[std::max(a, b)] = std::min(a, b);
-    }
+    if (p.verified) sets.unite(p.source, p.target);
   std::vector<std::size_t> size(n, 0);
-  for (std::size_t i = 0; i < n; ++i) ++size[find_root(parent, i)];
+  for (std::size_t i = 0; i < n; ++i) ++size[sets.find(i)];
   std::size_t best = 0;
   for (std::size_t i = 0; i < n; ++i)
     if (size[i] > size[best]) best = i;  // roots are their set's lowest index
@@ -190,14 +181,12 @@ void place_by_tree(ScanAlignmentState& s) {
   std::stable_sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) {
     return result.pairs[a].fitness > result.pairs[b].fitness;
   });
-  std::vector<std::size_t> parent(n);
-  std::iota(parent.begin(), parent.end(), 0);
+  DisjointSets sets(n);
   std::vector<std::vector<std::size_t>> tree_pairs(n);
   for (std::size_t k : order) {
     ScanPair& p = result.pairs[k];
-    const std::size_t a = find_root(parent, p.source), b = find_root(parent, p.target);
-    if (a == b) continue;
-    parent[std::max(a, b)] = std::min(a, b);
+    if (sets.find(p.source) == sets.find(p.target)) continue;
+    sets.unite(p.source, p.target);
     p.in_tree = true;
     tree_pairs[p.source].push_back(k);
     tree_pairs[p.target].push_back(k);

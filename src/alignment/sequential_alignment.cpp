@@ -45,6 +45,10 @@ std::string_view to_string(AlignmentMode mode) {
   return mode == AlignmentMode::Cumulative ? "cumulative" : "odometry";
 }
 
+std::string_view to_string(LoopSource source) {
+  return source == LoopSource::Features ? "features" : "proximity";
+}
+
 std::optional<AlignmentMode> parse_alignment_mode(std::string_view name) {
   if (name == "cumulative") return AlignmentMode::Cumulative;
   if (name == "odometry") return AlignmentMode::Odometry;

@@ -4,6 +4,7 @@
 #include <locard/alignment/trajectory_eval.hpp>
 #include <locard/core/atomic_file.hpp>
 #include <locard/core/error.hpp>
+#include <locard/io/matrix_json.hpp>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -18,13 +19,6 @@ const std::optional<Isometry3d>& stage_pose(const FrameAlignment& f, int stage) 
   if (stage == 0) return f.T_world_camera_svd;
   if (stage == 1) return f.T_world_camera_icp;
   return f.T_world_camera_final;
-}
-
-nlohmann::json pose_rows(const Isometry3d& T) {
-  nlohmann::json rows = nlohmann::json::array();
-  for (int r = 0; r < 3; ++r)
-    rows.push_back({T.matrix()(r, 0), T.matrix()(r, 1), T.matrix()(r, 2), T.matrix()(r, 3)});
-  return rows;
 }
 
 nlohmann::json optional_json(const std::optional<double>& v) {
@@ -182,7 +176,9 @@ void write_stage_report_json(const std::filesystem::path& path, const AlignmentR
     if (f.status == FrameStatus::Registered) {
       e["piece"] = f.piece;
       e["initialisation"] = f.initialisation;
-      if (f.T_world_camera_final) e["T_world_camera"] = pose_rows(*f.T_world_camera_final);
+      // 3x4: the pose without its constant last row (bench/room_robustness.py reads it so).
+      if (f.T_world_camera_final)
+        e["T_world_camera"] = matrix_json(f.T_world_camera_final->matrix().topRows<3>());
       const ViewCheck& c = f.check;
       e["verified"] = f.trusted();
       e["check"] = {{"checked", c.checked},        {"verified", c.verified},
@@ -209,7 +205,7 @@ void write_stage_report_json(const std::filesystem::path& path, const AlignmentR
     const auto& fs = result.frames;
     nlohmann::json e = {{"source_frame", fs[c.source].frame_index},
                         {"target_frame", fs[c.target].frame_index},
-                        {"found_by", c.found_by},
+                        {"found_by", std::string(to_string(c.found_by))},
                         {"accepted", c.accepted},
                         {"fitness", c.fitness},
                         {"inlier_rmse_m", c.inlier_rmse}};

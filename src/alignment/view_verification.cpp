@@ -599,7 +599,7 @@ Components linked_blocks(const AlignmentState& s, const std::vector<std::size_t>
   });
   Components blocks(m);
   for (std::size_t k = 0; k < m; ++k)
-    for (std::size_t j : links[k]) blocks.join(k, j);
+    for (std::size_t j : links[k]) blocks.unite(k, j);
   return blocks;
 }
 

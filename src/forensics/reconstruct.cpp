@@ -25,6 +25,7 @@
 #include <locard/preprocess/depth_to_points.hpp>
 #include <locard/surface/fusion.hpp>
 #include <locard/surface/mesh_cleanup.hpp>
+#include <locard/io/matrix_json.hpp>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -76,23 +77,6 @@ double seconds_since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-json pose_json(const Isometry3d& T) {
-  json rows = json::array();
-  for (int r = 0; r < 4; ++r)
-    rows.push_back({T.matrix()(r, 0), T.matrix()(r, 1), T.matrix()(r, 2), T.matrix()(r, 3)});
-  return rows;
-}
-
-json matrix6_json(const Matrix6d& m) {
-  json rows = json::array();
-  for (int r = 0; r < 6; ++r) {
-    json row = json::array();
-    for (int c = 0; c < 6; ++c) row.push_back(m(r, c));
-    rows.push_back(row);
-  }
-  return rows;
-}
-
 void write_json(const fs::path& path, const json& j) {
   AtomicFile f(path, false);
   f.stream() << j.dump(1) << '\n';
@@ -138,10 +122,80 @@ void for_each_field(ReconstructParameters& p, F&& f) {
   f("title", p.title);
 }
 
+// A parameter's JSON value: numbers, flags and text as they are, enums by their names.
+template <typename T>
+json field_json(const T& value) {
+  return value;
+}
+json field_json(AlignmentMode v) { return std::string(to_string(v)); }
+json field_json(IcpMethod v) { return std::string(to_string(v)); }
+json field_json(ScanPoseSource v) { return std::string(to_string(v)); }
+json field_json(UpAxis v) { return std::string(to_string(v)); }
+json field_json(WorldFrameChoice v) { return std::string(to_string(v)); }
+json field_json(PaperSize v) { return std::string(to_string(v)); }
+json field_json(const std::vector<MeshFormat>& v) { return mesh_formats_text(v); }
+
+// A named value from JSON text through its parser; false when it is not one of the names.
+template <typename T, typename Parse>
+bool named_from_json(const json& v, T& out, Parse parse) {
+  if (!v.is_string()) return false;
+  const auto parsed = parse(v.get<std::string>());
+  if (!parsed) return false;
+  out = *parsed;
+  return true;
+}
+
+// Reads a parameter from JSON, checking its type (and for names, the name); false when wrong.
+template <typename T>
+bool field_from_json(const json& v, T& out) {
+  const bool ok = std::is_same_v<T, bool>          ? v.is_boolean()
+                  : std::is_same_v<T, std::string> ? v.is_string()
+                  : std::is_floating_point_v<T>    ? v.is_number()
+                                                   : v.is_number_integer() && v.get<double>() >= 0;
+  if (ok) out = v.get<T>();
+  return ok;
+}
+bool field_from_json(const json& v, AlignmentMode& out) {
+  return named_from_json(v, out, parse_alignment_mode);
+}
+bool field_from_json(const json& v, IcpMethod& out) { return named_from_json(v, out, parse_icp_method); }
+bool field_from_json(const json& v, ScanPoseSource& out) {
+  return named_from_json(v, out, parse_scan_pose_source);
+}
+bool field_from_json(const json& v, UpAxis& out) { return named_from_json(v, out, parse_up_axis); }
+bool field_from_json(const json& v, WorldFrameChoice& out) {
+  return named_from_json(v, out, parse_world_frame_choice);
+}
+bool field_from_json(const json& v, PaperSize& out) { return named_from_json(v, out, parse_paper_size); }
+bool field_from_json(const json& v, std::vector<MeshFormat>& out) {
+  if (!v.is_string()) return false;
+  try {
+    out = parse_mesh_formats(v.get<std::string>());
+  } catch (const InputError&) {
+    return false;
+  }
+  return !out.empty();
+}
+
+// The names a named parameter accepts (for the error message); empty for the rest.
+template <typename T>
+std::string field_choices(const T&) {
+  return "";
+}
+std::string field_choices(AlignmentMode) { return "cumulative, odometry"; }
+std::string field_choices(IcpMethod) { return "colored, point-to-plane"; }
+std::string field_choices(ScanPoseSource) { return "input, global"; }
+std::string field_choices(UpAxis) { return "y, z"; }
+std::string field_choices(WorldFrameChoice) { return "auto, first-camera"; }
+std::string field_choices(PaperSize) { return "A4, letter"; }
+std::string field_choices(const std::vector<MeshFormat>&) {
+  return "a comma-separated list of ply, obj, gltf, glb, fbx";
+}
+
 json parameters_json(const ReconstructParameters& p) {
   json j = json::object();
   ReconstructParameters copy = p;
-  for_each_field(copy, [&](const char* key, auto& value) { j[key] = value; });
+  for_each_field(copy, [&](const char* key, auto& value) { j[key] = field_json(value); });
   j["reference"] = p.reference.string();
   return j;
 }
@@ -191,14 +245,11 @@ ReconstructParameters ReconstructParameters::from_json_file(const fs::path& path
     names.push_back(key);
     if (!j.contains(key)) return;
     seen.insert(key);
-    using T = std::decay_t<decltype(value)>;
-    const json& v = j[key];
-    const bool ok = std::is_same_v<T, bool>          ? v.is_boolean()
-                    : std::is_same_v<T, std::string> ? v.is_string()
-                    : std::is_floating_point_v<T>    ? v.is_number()
-                                                     : v.is_number_integer() && v.get<double>() >= 0;
-    if (!ok) throw_input_error(path, fmt::format("\"{}\": wrong type or value", key));
-    value = v.get<T>();
+    if (!field_from_json(j[key], value)) {
+      const std::string choices = field_choices(value);
+      throw_input_error(path, fmt::format("\"{}\": wrong type or value{}", key,
+                                          choices.empty() ? "" : " (expected " + choices + ")"));
+    }
   });
   if (j.contains("reference")) {
     if (!j["reference"].is_string()) throw_input_error(path, "\"reference\": expected a path");
@@ -217,8 +268,8 @@ ReconstructParameters ReconstructParameters::from_json_file(const fs::path& path
 ReconstructParameters ReconstructParameters::defaults_for(const SequenceTraits& traits) {
   const AlignmentOptions a = default_alignment_options(traits);
   ReconstructParameters p;
-  p.mode = std::string(to_string(a.mode));
-  p.odometry_icp = std::string(to_string(a.odometry_method));
+  p.mode = a.mode;
+  p.odometry_icp = a.odometry_method;
   p.max_depth_m = a.max_depth_m;
   return p;
 }
@@ -245,7 +296,6 @@ struct ReconstructPlan {
   DatasetFormat format = DatasetFormat::Unknown;
   AlignmentMode mode = AlignmentMode::Cumulative;
   IcpMethod odometry_icp = IcpMethod::PointToPlane;
-  std::vector<MeshFormat> formats;
   RgbdSequence sequence;
   fs::path reference;
   std::vector<ReferenceMeasurement> refs;
@@ -279,17 +329,10 @@ ReconstructPlan plan_reconstruct(const fs::path& input, const ReconstructParamet
                                          "(a Stanford .conf, a folder of two or more PLY/PCD "
                                          "scans, an E57 file of two or more scans), found {}",
                                          to_string(plan.format)));
-  const auto mode = parse_alignment_mode(P.mode);
-  if (!mode) throw InputError(fmt::format("mode must be cumulative or odometry, got '{}'", P.mode));
-  plan.mode = *mode;
-  const auto odometry_icp = parse_icp_method(P.odometry_icp);
-  if (!odometry_icp || *odometry_icp == IcpMethod::PointToPoint)
-    throw InputError(fmt::format("odometry_icp must be colored or point-to-plane, got '{}'",
-                                 P.odometry_icp));
-  plan.odometry_icp = *odometry_icp;
-  if (P.world_frame != "auto" && P.world_frame != "first-camera")
-    throw InputError(fmt::format("world_frame must be auto or first-camera, got '{}'", P.world_frame));
-  plan.formats = check_output_parameters(P);
+  plan.mode = P.mode;
+  if (P.odometry_icp == IcpMethod::PointToPoint)
+    throw InputError("odometry_icp must be colored or point-to-plane, got 'point-to-point'");
+  plan.odometry_icp = P.odometry_icp;
   plan.sequence = open_rgbd_sequence(input);
   if (plan.sequence.frames.size() < 2)
     throw_input_error(input, "the sequence needs at least two frames");
@@ -334,22 +377,11 @@ void run_coverage_stage(CaseFolder& folder, const RgbdSequence& sequence,
 }
 
 // What every stage of one reconstruction reads, and the progress and notes it reports.
-struct StageContext {
+struct StageContext : StageHooks {
   CaseFolder& folder;
   const ReconstructPlan& plan;
   const ReconstructParameters& P;
-  const StageCallbacks& cb;
   ReconstructSummary& summary;
-
-  ProgressCallback begin(const std::string& stage, std::size_t total) const {
-    return cb.begin ? cb.begin(stage, total) : ProgressCallback{};
-  }
-  void end(const std::string& stage) const {
-    if (cb.end) cb.end(stage);
-  }
-  void note(const std::string& message) const {
-    if (cb.log) cb.log(message);
-  }
 };
 
 // ---- ingest: hash the inputs (and frames named outside the input folder), write case.json
@@ -486,7 +518,7 @@ WorldFrame choose_world_frame(const StageContext& c, const AlignmentResult& resu
   std::string& world_frame = frame.description;
   world_frame = "camera frame of the first registered view";
   bool in_input_frame = false;  // the data's world frame (its gravity, if recorded, applies)
-  if (c.P.world_frame == "auto" && !result.node_frames.empty()) {
+  if (c.P.world_frame == WorldFrameChoice::Auto && !result.node_frames.empty()) {
     const FrameAlignment& f0 = result.frames[result.node_frames[0]];
     const auto& gt = c.plan.sequence.frames[f0.sequence_index].T_world_camera;
     if (gt && f0.T_world_camera_final) {
@@ -574,7 +606,7 @@ void write_alignment_files(const StageContext& c, const AlignmentResult& result,
                                         .lexically_normal()
                                         .string()},
                      {"T_world_camera", pose_json(result.graph.nodes[k])},
-                     {"covariance", matrix6_json(cov.covariances[k])},
+                     {"covariance", matrix_json(cov.covariances[k])},
                      {"sigma_translation_m", std::sqrt(cov.covariances[k].block<3, 3>(3, 3).trace())},
                      {"sigma_rotation_deg",
                       std::sqrt(cov.covariances[k].block<3, 3>(0, 0).trace()) * 180.0 / M_PI}});
@@ -586,7 +618,7 @@ void write_alignment_files(const StageContext& c, const AlignmentResult& result,
                 {"target_frame", result.frames[result.node_frames[e.target]].frame_index},
                 {"kind", e.uncertain ? "loop" : "odometry"},
                 {"T_target_source", pose_json(e.T_target_source)},
-                {"information", matrix6_json(e.information)},
+                {"information", matrix_json(e.information)},
                 {"line_process_weight", e.confidence},
                 {"chi2", e.chi2}};
   };
@@ -654,7 +686,7 @@ void record_alignment(const StageContext& c, json& case_json, const AlignmentRes
   {
     LogStep s;
     s.step = "align";
-    s.parameters_json = json{{"mode", P.mode}, {"odometry_icp", P.odometry_icp},
+    s.parameters_json = json{{"mode", to_string(P.mode)}, {"odometry_icp", to_string(P.odometry_icp)},
                              {"voxel_m", P.align_voxel_m}, {"stride", P.stride},
                              {"depth_range_m", {P.min_depth_m, P.max_depth_m}},
                              {"loop_closure", P.loop_closure}, {"seed", P.seed},
@@ -688,7 +720,7 @@ std::vector<std::optional<Isometry3d>> mesh_stage(const StageContext& c, const A
   c.end("mesh");
   const std::size_t raw_triangles = fused.mesh.triangle_count();
   const ComponentReport components = remove_small_components(fused.mesh, P.min_component);
-  const std::vector<fs::path> mesh_outputs = write_mesh_files(c.folder, fused.mesh, c.plan.formats, export_up(P));
+  const std::vector<fs::path> mesh_outputs = write_mesh_files(c.folder, fused.mesh, P.formats, P.up);
   write_ply(c.folder.path("cloud/registered.ply"), fused.cloud);
   write_json(c.folder.path("mesh/mesh.json"),
              {{"method", "tsdf"},
@@ -711,7 +743,7 @@ std::vector<std::optional<Isometry3d>> mesh_stage(const StageContext& c, const A
     s.step = "mesh";
     s.parameters_json = json{{"method", "tsdf"}, {"voxel_m", P.mesh_voxel_m},
                              {"truncation_m", fo.tsdf.truncation},
-                             {"min_component", P.min_component}, {"formats", P.formats},
+                             {"min_component", P.min_component}, {"formats", mesh_formats_text(P.formats)},
                              {"cloud_voxel_m", P.cloud_voxel_m}}.dump();
     s.duration_s = seconds_since(t0);
     s.inputs = {"alignment/trajectory.txt"};
@@ -727,7 +759,7 @@ std::vector<std::optional<Isometry3d>> mesh_stage(const StageContext& c, const A
 // The stages, each a logged step, between the "begin" and "complete" lines.
 void run_stages(CaseFolder& folder, const ReconstructPlan& plan, const ReconstructParameters& P,
                 const StageCallbacks& cb, ReconstructSummary& summary) {
-  const StageContext c{folder, plan, P, cb, summary};
+  const StageContext c{{cb}, folder, plan, P, summary};
   const SensorNoiseModel noise = SensorNoiseModel::for_sensor(plan.sequence.traits.sensor);
   json case_json = ingest_stage(c, noise);
 

@@ -28,21 +28,11 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-// Where the registration starts (ReconstructParameters::scan_poses).
-enum class ScanPoseSource { Input, Global };
-
-std::optional<ScanPoseSource> parse_scan_pose_source(const std::string& name) {
-  if (name == "input") return ScanPoseSource::Input;
-  if (name == "global") return ScanPoseSource::Global;
-  return std::nullopt;
-}
-
 // What the checks before anything is written found.
 struct ScanPlan {
   RangeScanSet set;
   fs::path input_root;  // the folder holding the input (every file in it is hashed)
   ScanPoseSource poses = ScanPoseSource::Input;
-  std::vector<MeshFormat> formats;
   fs::path reference;
   std::vector<ReferenceMeasurement> refs;
   std::vector<PointCloud> scans;  // each in its own frame
@@ -61,11 +51,8 @@ struct ScanCase {
 ScanPlan plan_scans(const RangeScanSet& set, const ReconstructParameters& P) {
   ScanPlan plan;
   plan.set = set;
-  const auto poses = parse_scan_pose_source(P.scan_poses);
-  if (!poses) throw InputError(fmt::format("scan_poses must be input or global, got '{}'", P.scan_poses));
-  plan.poses = *poses;
+  plan.poses = P.scan_poses;
   if (!(P.scan_voxel_m >= 0.0)) throw InputError("scan_voxel_m must be 0 (automatic) or positive");
-  plan.formats = check_output_parameters(P);
   if (set.scans.size() < 2)
     throw_input_error(set.input, fmt::format("expected at least two scans, found {}", set.scans.size()));
   const fs::path input = fs::absolute(set.input).lexically_normal();
@@ -174,14 +161,14 @@ void write_alignment_files(CaseFolder& folder, const ScanCase& c, const std::str
                      {"T_world_camera", pose_json(r.T_world_scan[i])}});
     views.push_back({{"node", k}, {"frame_index", i}, {"timestamp", static_cast<double>(i)},
                      {"name", scan_name(c, i)}, {"T_world_camera", pose_json(r.T_world_scan[i])},
-                     {"covariance", matrix6_json(cov[k])},
+                     {"covariance", matrix_json(cov[k])},
                      {"sigma_translation_m", std::sqrt(cov[k].block<3, 3>(3, 3).trace())},
                      {"sigma_rotation_deg", std::sqrt(cov[k].block<3, 3>(0, 0).trace()) * 180.0 / M_PI}});
   }
   for (const PoseGraphEdge& e : r.graph.edges)
     edges.push_back({{"source_node", e.source}, {"target_node", e.target},
                      {"kind", e.uncertain ? "loop" : "odometry"}, {"T_target_source", pose_json(e.T_target_source)},
-                     {"information", matrix6_json(e.information)}, {"line_process_weight", e.confidence}});
+                     {"information", matrix_json(e.information)}, {"line_process_weight", e.confidence}});
   write_json(folder.path("alignment/pose_graph.json"),
              {{"convention", "T_world_camera maps a scan's points into the world (the scan's frame "
                              "is its camera); odometry edges are the spanning tree's pairs, loop "
@@ -252,7 +239,7 @@ void align(CaseFolder& folder, ScanCase& c, ReconstructSummary& summary) {
   s.step = "align";
   s.parameters_json = json{{"method", "multiway: pairwise point-to-plane ICP, pose graph, "
                                       "multi-view refinement"},
-                           {"scan_poses", c.P.scan_poses}, {"voxel_m", o.voxel_size},
+                           {"scan_poses", to_string(c.P.scan_poses)}, {"voxel_m", o.voxel_size},
                            {"feature_voxel_m", o.feature_voxel_size}, {"icp_gates_m", o.icp_gates},
                            {"min_fitness", o.min_fitness}, {"max_inlier_rmse_m", o.max_inlier_rmse},
                            {"seed", o.seed}, {"world_frame", world_frame}}.dump();
@@ -323,7 +310,7 @@ void mesh(CaseFolder& folder, ScanCase& c, ReconstructSummary& summary) {
   const std::size_t raw_triangles = m.triangle_count();
   const ComponentReport components = remove_small_components(m, c.P.min_component);
   colour_mesh(m);
-  std::vector<fs::path> outputs = write_mesh_files(folder, m, c.plan.formats, export_up(c.P));
+  std::vector<fs::path> outputs = write_mesh_files(folder, m, c.P.formats, c.P.up);
   write_ply(folder.path("cloud/registered.ply"), c.surface_cloud);
   write_json(folder.path("mesh/mesh.json"),
              {{"method", "poisson"}, {"voxel_size", surface_voxel(c)}, {"trim_distance", po.trim_distance},
@@ -338,7 +325,7 @@ void mesh(CaseFolder& folder, ScanCase& c, ReconstructSummary& summary) {
   s.step = "mesh";
   s.parameters_json = json{{"method", "poisson"}, {"voxel_m", surface_voxel(c)},
                            {"trim_distance_m", po.trim_distance}, {"min_component", c.P.min_component},
-                           {"formats", c.P.formats}}.dump();
+                           {"formats", mesh_formats_text(c.P.formats)}}.dump();
   s.duration_s = seconds_since(t0);
   s.inputs = {"alignment/trajectory.txt"};
   s.outputs = outputs;

@@ -38,7 +38,7 @@ const fs::path kBunny = test::shared_data() / "stanford-bunny" / "bunny";
 ReconstructParameters quick_parameters() {
   ReconstructParameters p;
   p.pdf = false;
-  p.formats = "ply";
+  p.formats = {MeshFormat::Ply};
   p.render_width = 160;
   p.render_height = 100;
   return p;
@@ -171,9 +171,17 @@ TEST(ReconstructScans, RefusesASingleScanAndAnUnknownScanPoseSource) {
   fs::create_directories(dir / "one");
   write_ply(dir / "one" / "a.ply", cut_bunny(2).scans[0]);
   EXPECT_THROW(reconstruct_case(dir / "one", dir / "case", quick_parameters(), false), InputError);
-  ReconstructParameters p = quick_parameters();
-  p.scan_poses = "guess";
-  EXPECT_THROW(reconstruct_case(kBunny / "data" / "bun.conf", dir / "case2", p, false), InputError);
+  // An unknown pose source in a parameter file is refused with the key named, before any case.
+  {
+    std::ofstream(dir / "params.json") << R"({"scan_poses": "guess"})";
+  }
+  try {
+    (void)ReconstructParameters::from_json_file(dir / "params.json", quick_parameters());
+    ADD_FAILURE() << "an unknown scan_poses was accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("scan_poses"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("input, global"), std::string::npos) << e.what();
+  }
   EXPECT_FALSE(fs::exists(dir / "case2" / "case.json"));
 }
 

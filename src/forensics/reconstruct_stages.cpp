@@ -43,25 +43,6 @@ void log_phase(CaseFolder& folder, StepPhase phase, const json& parameters) {
 
 }  // namespace
 
-std::vector<MeshFormat> check_output_parameters(const ReconstructParameters& P) {
-  if (P.paper != "A4" && P.paper != "letter")
-    throw InputError(fmt::format("paper must be A4 or letter, got '{}'", P.paper));
-  export_up(P);
-  std::vector<MeshFormat> formats;
-  std::stringstream ss(P.formats);
-  std::string name;
-  while (std::getline(ss, name, ','))
-    if (const auto f = parse_mesh_format(name)) formats.push_back(*f);
-    else throw InputError(fmt::format("formats: unknown mesh format '{}'", name));
-  return formats;
-}
-
-UpAxis export_up(const ReconstructParameters& P) {
-  const auto up = parse_up_axis(P.up);
-  if (!up) throw InputError(fmt::format("up must be y or z, got '{}'", P.up));
-  return *up;
-}
-
 std::vector<fs::path> write_mesh_files(CaseFolder& folder, const TriangleMesh& mesh,
                                        const std::vector<MeshFormat>& formats, UpAxis up) {
   std::vector<fs::path> outputs;
@@ -177,3 +158,43 @@ ReconstructSummary run_bracketed(const fs::path& input_root, const fs::path& cas
 }
 
 }  // namespace locard::forensics::detail
+
+namespace locard::forensics {
+
+std::string_view to_string(ScanPoseSource source) {
+  return source == ScanPoseSource::Global ? "global" : "input";
+}
+
+std::optional<ScanPoseSource> parse_scan_pose_source(std::string_view name) {
+  if (name == "input") return ScanPoseSource::Input;
+  if (name == "global") return ScanPoseSource::Global;
+  return std::nullopt;
+}
+
+std::string_view to_string(WorldFrameChoice choice) {
+  return choice == WorldFrameChoice::FirstCamera ? "first-camera" : "auto";
+}
+
+std::optional<WorldFrameChoice> parse_world_frame_choice(std::string_view name) {
+  if (name == "auto") return WorldFrameChoice::Auto;
+  if (name == "first-camera") return WorldFrameChoice::FirstCamera;
+  return std::nullopt;
+}
+
+std::string mesh_formats_text(const std::vector<MeshFormat>& formats) {
+  std::string text;
+  for (MeshFormat f : formats) text += (text.empty() ? "" : ",") + std::string(to_string(f));
+  return text;
+}
+
+std::vector<MeshFormat> parse_mesh_formats(std::string_view text) {
+  std::vector<MeshFormat> formats;
+  std::stringstream ss{std::string(text)};
+  std::string name;
+  while (std::getline(ss, name, ','))
+    if (const auto f = parse_mesh_format(name)) formats.push_back(*f);
+    else throw InputError(fmt::format("formats: unknown mesh format '{}'", name));
+  return formats;
+}
+
+}  // namespace locard::forensics

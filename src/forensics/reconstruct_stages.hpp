@@ -11,6 +11,7 @@
 #include <locard/io/mesh_export.hpp>
 #include <locard/io/range_scans.hpp>
 #include <locard/io/rgbd_sequence.hpp>
+#include <locard/io/matrix_json.hpp>
 
 #include <nlohmann/json.hpp>
 
@@ -25,8 +26,6 @@ namespace locard::forensics::detail {
 
 using Clock = std::chrono::steady_clock;
 double seconds_since(Clock::time_point t);
-nlohmann::json pose_json(const Isometry3d& T);
-nlohmann::json matrix6_json(const Matrix6d& m);
 void write_json(const std::filesystem::path& path, const nlohmann::json& j);
 void write_text(const std::filesystem::path& path, const std::string& text);
 nlohmann::json parameters_json(const ReconstructParameters& p);
@@ -49,11 +48,6 @@ struct StageHooks {
   }
 };
 
-// The checks of the output parameters (paper, mesh formats) before anything is written; the
-// mesh formats to write.
-std::vector<MeshFormat> check_output_parameters(const ReconstructParameters& P);
-// P.up as the exports' up axis; InputError when it is neither "y" nor "z".
-UpAxis export_up(const ReconstructParameters& P);
 // mesh/mesh.<format> for each format (OBJ and FBX with `up` up), and mesh/mesh.ply always
 // (measurements need it); the relative paths written.
 std::vector<std::filesystem::path> write_mesh_files(CaseFolder& folder, const TriangleMesh& mesh,

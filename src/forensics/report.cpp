@@ -471,7 +471,7 @@ std::string report_opening(const ReportInputs& r, const ReportOptions& o) {
        "figcaption{font-size:12px;color:#555}.note{font-size:12px;color:#555}"
        ".illustrative{border:2px solid #c60;padding:4px 8px;color:#c60;font-weight:bold}"
        ".hashes{columns:2;font-family:monospace;font-size:8px;line-height:1.25}"
-       "@page{size:" + o.paper + ";margin:14mm}"
+       "@page{size:" + std::string(to_string(o.paper)) + ";margin:14mm}"
        "@media print{h2{page-break-after:avoid}table{page-break-inside:auto}}\n</style></head><body>\n";
   h += "<h1>" + esc(title) + "</h1>\n";
   h += fmt::format("<p class=\"note\">Case folder <code>{}</code>, created {} by Locard {}. World "
@@ -890,6 +890,14 @@ void print_pdf(const fs::path& root, ReportResult& result) {
 
 }  // namespace
 
+std::string_view to_string(PaperSize paper) { return paper == PaperSize::Letter ? "letter" : "A4"; }
+
+std::optional<PaperSize> parse_paper_size(std::string_view name) {
+  if (name == "A4") return PaperSize::A4;
+  if (name == "letter") return PaperSize::Letter;
+  return std::nullopt;
+}
+
 ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o) {
   ReportInputs r;
   r.root = folder.root();
@@ -952,7 +960,7 @@ ReportResult refresh_case_report(CaseFolder& folder) {
     o.render_width = p.value("render_width", o.render_width);
     o.render_height = p.value("render_height", o.render_height);
     o.pdf = p.value("pdf", o.pdf);
-    o.paper = p.value("paper", o.paper);
+    o.paper = parse_paper_size(p.value("paper", std::string(to_string(o.paper)))).value_or(o.paper);
   }
   CaseChange change(folder, {"report/report.html", "report/report.pdf"});
   const bool had_pdf = fs::exists(folder.root() / "report" / "report.pdf");

@@ -7,8 +7,9 @@
 #include <locard/core/atomic_file.hpp>
 
 #include <locard/core/error.hpp>
-#include <locard/forensics/measurement.hpp>
 #include <locard/core/raycaster.hpp>
+#include <locard/forensics/case_folder.hpp>
+#include <locard/forensics/measurement.hpp>
 
 #include <Eigen/Eigenvalues>
 #include <fmt/format.h>
@@ -235,6 +236,34 @@ void write_trajectory_analyses(const std::filesystem::path& json_path,
   AtomicFile f(std::filesystem::path(json_path).replace_extension(".csv"), false);
   f.stream() << trajectory_analyses_csv(analyses);
   f.commit();
+}
+
+RecordedTrajectory record_trajectory_analysis(CaseFolder& folder, TrajectoryAnalysis analysis,
+                                              const std::string& parameters_json,
+                                              double duration_s) {
+  const std::filesystem::path relative = "trajectories/analyses.json";
+  CaseChange change(folder, {relative, "trajectories/analyses.csv"});
+  std::vector<TrajectoryAnalysis> all =
+      std::filesystem::is_regular_file(folder.path(relative))
+          ? read_trajectory_analyses(folder.path(relative))
+          : std::vector<TrajectoryAnalysis>{};
+  if (analysis.name.empty()) analysis.name = fmt::format("T{}", all.size() + 1);
+  for (const TrajectoryAnalysis& existing : all)
+    if (existing.name == analysis.name)
+      throw InputError(fmt::format("a trajectory named '{}' exists already in this case",
+                                   analysis.name));
+  all.push_back(analysis);
+  write_trajectory_analyses(folder.path(relative), all);
+  LogStep step;
+  step.step = "trajectory";
+  step.parameters_json = parameters_json;
+  step.duration_s = duration_s;
+  step.inputs = {"mesh/mesh.ply"};
+  step.outputs = {relative, "trajectories/analyses.csv"};
+  RecordedTrajectory recorded;
+  recorded.log_seq = change.commit(step);
+  recorded.analysis = std::move(analysis);
+  return recorded;
 }
 
 }  // namespace locard::forensics

@@ -6,6 +6,7 @@
 
 #include <locard/core/error.hpp>
 #include <locard/io/ply.hpp>
+#include <locard/io/strict_json.hpp>
 
 #include <nlohmann/json.hpp>
 
@@ -22,147 +23,7 @@ namespace {
 using nlohmann::json;
 namespace fs = std::filesystem;
 
-std::string type_phrase(const json& j) {
-  switch (j.type()) {
-    case json::value_t::null: return "null";
-    case json::value_t::boolean: return "a boolean";
-    case json::value_t::string: return "a string";
-    case json::value_t::array: return "an array";
-    case json::value_t::object: return "an object";
-    case json::value_t::number_integer:
-    case json::value_t::number_unsigned:
-    case json::value_t::number_float: return "a number";
-    default: return "a value of another type";
-  }
-}
-
-std::string fmt_number(double x) {
-  std::ostringstream s;
-  s << x;
-  return s.str();
-}
-
-// Reads one JSON object, remembering which keys were asked for so leftovers can be reported.
-class Reader {
- public:
-  Reader(const json& j, std::string where, const fs::path& file)
-      : j_(j), where_(std::move(where)), file_(file) {
-    if (!j_.is_object()) fail(where_ + ": expected an object, found " + type_phrase(j_));
-  }
-
-  [[noreturn]] void fail(const std::string& what) const { throw_input_error(file_, what); }
-  std::string place(const std::string& key) const { return where_ + "." + key; }
-  const std::string& where() const { return where_; }
-  bool has(const std::string& key) const { return j_.contains(key); }
-
-  const json& required(const std::string& key) {
-    known_.insert(key);
-    if (!j_.contains(key)) fail(where_ + ": missing required key '" + key + "'");
-    return j_.at(key);
-  }
-  const json* optional(const std::string& key) {
-    known_.insert(key);
-    return j_.contains(key) ? &j_.at(key) : nullptr;
-  }
-
-  double number_value(const json& value, const std::string& key) const {
-    if (!value.is_number()) fail(place(key) + ": expected a number, found " + type_phrase(value));
-    const double x = value.get<double>();
-    if (!std::isfinite(x)) fail(place(key) + ": expected a finite number, found " + value.dump());
-    return x;
-  }
-  double number(const std::string& key) { return number_value(required(key), key); }
-  double number_or(const std::string& key, double fallback) {
-    const json* v = optional(key);
-    return v ? number_value(*v, key) : fallback;
-  }
-  double positive(const std::string& key) { return check_positive(key, number(key)); }
-  double positive_or(const std::string& key, double fallback) {
-    return check_positive(key, number_or(key, fallback));
-  }
-  double check_positive(const std::string& key, double x) const {
-    if (!(x > 0.0)) fail(place(key) + ": expected a positive number, found " + fmt_number(x));
-    return x;
-  }
-  double non_negative_or(const std::string& key, double fallback) {
-    const double x = number_or(key, fallback);
-    if (x < 0.0) fail(place(key) + ": expected a number >= 0, found " + fmt_number(x));
-    return x;
-  }
-  double in_range_or(const std::string& key, double fallback, double lo, double hi) {
-    const double x = number_or(key, fallback);
-    if (x < lo || x > hi)
-      fail(place(key) + ": expected a number from " + fmt_number(lo) + " to " + fmt_number(hi) +
-           ", found " + fmt_number(x));
-    return x;
-  }
-
-  std::string string_value(const json& value, const std::string& key) const {
-    if (!value.is_string()) fail(place(key) + ": expected a string, found " + type_phrase(value));
-    return value.get<std::string>();
-  }
-  std::string string(const std::string& key) { return string_value(required(key), key); }
-  std::string string_or(const std::string& key, const std::string& fallback) {
-    const json* v = optional(key);
-    return v ? string_value(*v, key) : fallback;
-  }
-
-  Eigen::Vector3d vec3_value(const json& value, const std::string& key) const {
-    if (!value.is_array() || value.size() != 3)
-      fail(place(key) + ": expected an array of 3 numbers, found " + describe(value));
-    Eigen::Vector3d out;
-    for (int i = 0; i < 3; ++i) out[i] = number_value(value[i], key + "[" + std::to_string(i) + "]");
-    return out;
-  }
-  Eigen::Vector3d vec3(const std::string& key) { return vec3_value(required(key), key); }
-  Eigen::Vector3d vec3_or(const std::string& key, const Eigen::Vector3d& fallback) {
-    const json* v = optional(key);
-    return v ? vec3_value(*v, key) : fallback;
-  }
-
-  Rgb8 color_or(const std::string& key, Rgb8 fallback) {
-    const json* v = optional(key);
-    if (!v) return fallback;
-    if (!v->is_array() || v->size() != 3)
-      fail(place(key) + ": expected an RGB array of 3 integers 0..255, found " + describe(*v));
-    std::uint8_t c[3];
-    for (int i = 0; i < 3; ++i) {
-      const json& x = (*v)[i];
-      if (!x.is_number_integer() || x.get<std::int64_t>() < 0 || x.get<std::int64_t>() > 255)
-        fail(place(key) + ": expected an RGB array of 3 integers 0..255, found " + v->dump());
-      c[i] = static_cast<std::uint8_t>(x.get<std::int64_t>());
-    }
-    return {c[0], c[1], c[2]};
-  }
-
-  const json& array(const std::string& key, bool is_required) {
-    static const json kEmpty = json::array();
-    const json* v = is_required ? &required(key) : optional(key);
-    if (!v) return kEmpty;
-    if (!v->is_array()) fail(place(key) + ": expected an array, found " + type_phrase(*v));
-    return *v;
-  }
-
-  // Every key present must have been asked for.
-  void finish() const {
-    for (const auto& item : j_.items()) {
-      if (known_.count(item.key())) continue;
-      std::string expected;
-      for (const auto& k : known_) expected += (expected.empty() ? "" : ", ") + k;
-      fail(where_ + ": unknown key '" + item.key() + "' (expected one of: " + expected + ")");
-    }
-  }
-
-  static std::string describe(const json& v) {
-    return v.is_array() ? "an array of " + std::to_string(v.size()) : type_phrase(v);
-  }
-
- private:
-  const json& j_;
-  std::string where_;
-  const fs::path& file_;
-  std::set<std::string> known_;
-};
+using Reader = StrictObject;  // io/strict_json.hpp
 
 std::string element_place(const std::string& list, std::size_t index, const json& j) {
   std::string where = list + "[" + std::to_string(index) + "]";

@@ -6,6 +6,7 @@
 
 #include <locard/core/error.hpp>
 #include <locard/io/ply.hpp>
+#include <locard/io/strict_json.hpp>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -25,119 +26,10 @@ namespace {
 using nlohmann::json;
 namespace fs = std::filesystem;
 
-std::string type_phrase(const json& j) {
-  switch (j.type()) {
-    case json::value_t::null: return "null";
-    case json::value_t::boolean: return "a boolean";
-    case json::value_t::string: return "a string";
-    case json::value_t::array: return "an array";
-    case json::value_t::object: return "an object";
-    case json::value_t::number_integer:
-    case json::value_t::number_unsigned:
-    case json::value_t::number_float: return "a number";
-    default: return "a value of another type";
-  }
-}
-
-// Reads one JSON object, remembering which keys were used so that leftovers can be reported.
-class ObjectReader {
+// StrictObject (io/strict_json.hpp) and the one thing scene files add: a texture name.
+class ObjectReader : public StrictObject {
  public:
-  ObjectReader(const json& j, std::string where, const fs::path& file)
-      : j_(j), where_(std::move(where)), file_(file) {
-    if (!j_.is_object()) fail(where_ + ": expected an object, found " + type_phrase(j_));
-  }
-
-  [[noreturn]] void fail(const std::string& what) const { throw_input_error(file_, what); }
-  std::string place(const std::string& key) const { return where_ + "." + key; }
-
-  bool has(const std::string& key) const { return j_.contains(key); }
-
-  const json& required(const std::string& key) {
-    known_.insert(key);
-    if (!j_.contains(key)) fail(where_ + ": missing required key '" + key + "'");
-    return j_.at(key);
-  }
-  const json* optional(const std::string& key) {
-    known_.insert(key);
-    return j_.contains(key) ? &j_.at(key) : nullptr;
-  }
-
-  double number(const json& value, const std::string& key) const {
-    if (!value.is_number())
-      fail(place(key) + ": expected a number, found " + type_phrase(value));
-    const double x = value.get<double>();
-    if (!std::isfinite(x)) fail(place(key) + ": expected a finite number");
-    return x;
-  }
-  double number(const std::string& key) { return number(required(key), key); }
-  double number_or(const std::string& key, double fallback) {
-    const json* v = optional(key);
-    return v ? number(*v, key) : fallback;
-  }
-  double positive(const std::string& key, std::optional<double> fallback = std::nullopt) {
-    const double x = fallback ? number_or(key, *fallback) : number(key);
-    if (!(x > 0.0)) fail(place(key) + ": expected a positive number, found " + fmt_number(x));
-    return x;
-  }
-  double non_negative_or(const std::string& key, double fallback) {
-    const double x = number_or(key, fallback);
-    if (x < 0.0) fail(place(key) + ": expected a number >= 0, found " + fmt_number(x));
-    return x;
-  }
-
-  std::string string(const std::string& key) { return string_value(required(key), key); }
-  std::string string_or(const std::string& key, const std::string& fallback) {
-    const json* v = optional(key);
-    return v ? string_value(*v, key) : fallback;
-  }
-  std::string string_value(const json& value, const std::string& key) const {
-    if (!value.is_string())
-      fail(place(key) + ": expected a string, found " + type_phrase(value));
-    return value.get<std::string>();
-  }
-
-  bool boolean_or(const std::string& key, bool fallback) {
-    const json* v = optional(key);
-    if (!v) return fallback;
-    if (!v->is_boolean()) fail(place(key) + ": expected true or false, found " + type_phrase(*v));
-    return v->get<bool>();
-  }
-
-  Eigen::Vector3d vec3(const std::string& key) { return vec3_value(required(key), key); }
-  Eigen::Vector3d vec3_or(const std::string& key, const Eigen::Vector3d& fallback) {
-    const json* v = optional(key);
-    return v ? vec3_value(*v, key) : fallback;
-  }
-  Eigen::Vector3d vec3_value(const json& value, const std::string& key) const {
-    if (!value.is_array() || value.size() != 3)
-      fail(place(key) + ": expected an array of 3 numbers, found " + describe(value));
-    Eigen::Vector3d out;
-    for (int i = 0; i < 3; ++i) out[i] = number(value[i], key + "[" + std::to_string(i) + "]");
-    return out;
-  }
-  Eigen::Vector3d positive_vec3(const std::string& key) {
-    const Eigen::Vector3d v = vec3(key);
-    if ((v.array() <= 0.0).any())
-      fail(place(key) + ": expected three positive sizes, found [" + fmt_number(v.x()) + ", " +
-           fmt_number(v.y()) + ", " + fmt_number(v.z()) + "]");
-    return v;
-  }
-
-  Rgb8 color_or(const std::string& key, Rgb8 fallback, bool* given = nullptr) {
-    const json* v = optional(key);
-    if (given) *given = v != nullptr;
-    if (!v) return fallback;
-    if (!v->is_array() || v->size() != 3)
-      fail(place(key) + ": expected an RGB array of 3 integers 0..255, found " + describe(*v));
-    std::uint8_t c[3];
-    for (int i = 0; i < 3; ++i) {
-      const json& x = (*v)[i];
-      if (!x.is_number_integer() || x.get<std::int64_t>() < 0 || x.get<std::int64_t>() > 255)
-        fail(place(key) + ": expected an RGB array of 3 integers 0..255, found " + v->dump());
-      c[i] = static_cast<std::uint8_t>(x.get<std::int64_t>());
-    }
-    return {c[0], c[1], c[2]};
-  }
+  using StrictObject::StrictObject;
 
   Texture texture_or(const std::string& key, Texture fallback) {
     const json* v = optional(key);
@@ -147,40 +39,7 @@ class ObjectReader {
       if (name == to_string(t)) return t;
     fail(place(key) + ": unknown texture '" + name + "' (known: plain, checker, noise)");
   }
-
-  // Every key present must have been asked for.
-  void finish() const {
-    for (const auto& item : j_.items()) {
-      if (known_.count(item.key())) continue;
-      std::string expected;
-      for (const auto& k : known_) expected += (expected.empty() ? "" : ", ") + k;
-      fail(where_ + ": unknown key '" + item.key() + "' (expected one of: " + expected + ")");
-    }
-  }
-
-  static std::string fmt_number(double x) {
-    std::ostringstream s;
-    s << x;
-    return s.str();
-  }
-  static std::string describe(const json& v) {
-    return v.is_array() ? "an array of " + std::to_string(v.size()) : type_phrase(v);
-  }
-
- private:
-  const json& j_;
-  std::string where_;
-  const fs::path& file_;
-  std::set<std::string> known_;
 };
-
-const json& array_at(ObjectReader& r, const std::string& key, bool required) {
-  static const json kEmpty = json::array();
-  const json* v = required ? &r.required(key) : r.optional(key);
-  if (!v) return kEmpty;
-  if (!v->is_array()) r.fail(key + ": expected an array, found " + type_phrase(*v));
-  return *v;
-}
 
 RoomSpec read_room(const json& j, const fs::path& file) {
   ObjectReader r(j, "room", file);
@@ -190,7 +49,7 @@ RoomSpec read_room(const json& j, const fs::path& file) {
   room.floor_color = r.color_or("floor_color", room.floor_color);
   room.ceiling_color = r.color_or("ceiling_color", room.ceiling_color);
   room.texture = r.texture_or("texture", room.texture);
-  room.texture_scale = r.positive("texture_scale", room.texture_scale);
+  room.texture_scale = r.positive_or("texture_scale", room.texture_scale);
   r.finish();
   return room;
 }
@@ -210,7 +69,7 @@ SceneObject read_object(const json& j, std::size_t index, const fs::path& file,
   o.yaw_deg = r.number_or("yaw_deg", 0.0);
   o.color = r.color_or("color", o.color, &o.has_color);
   o.texture = r.texture_or("texture", o.texture);
-  o.texture_scale = r.positive("texture_scale", o.texture_scale);
+  o.texture_scale = r.positive_or("texture_scale", o.texture_scale);
   if (shape == "box") {
     o.shape = ShapeKind::Box;
     o.size = r.positive_vec3("size");
@@ -232,7 +91,7 @@ SceneObject read_object(const json& j, std::size_t index, const fs::path& file,
       o.file = r.string("file");
       if (o.file.is_relative()) o.file = base_dir / o.file;
     }
-    o.scale = r.positive("scale", 1.0);
+    o.scale = r.positive_or("scale", 1.0);
   } else {
     r.fail(r.place("shape") + ": unknown shape '" + shape + "' (known: box, cylinder, mesh)");
   }
@@ -302,7 +161,7 @@ ScannerSpec read_scanner(const json& j, const fs::path& file) {
   s.position = r.vec3_or("position", s.position);
   // "views": one count for every pitch row, or an array with one count a row.
   const auto view_count = [&](const json& v, const std::string& where) {
-    const double views = r.number(v, where);
+    const double views = r.number_value(v, where);
     if (views < 1 || views > 100000 || views != std::floor(views))
       r.fail(r.place(where) + ": expected an integer from 1 to 100000");
     return static_cast<int>(views);
@@ -323,7 +182,7 @@ ScannerSpec read_scanner(const json& j, const fs::path& file) {
              ObjectReader::describe(*pitch));
     s.pitch_deg.clear();
     for (std::size_t i = 0; i < pitch->size(); ++i) {
-      const double p = r.number((*pitch)[i], "pitch_deg[" + std::to_string(i) + "]");
+      const double p = r.number_value((*pitch)[i], "pitch_deg[" + std::to_string(i) + "]");
       if (p < -90.0 || p > 90.0) r.fail(r.place("pitch_deg") + ": angles must lie in [-90, 90]");
       s.pitch_deg.push_back(p);
     }
@@ -410,10 +269,10 @@ Scene parse_scene(std::string_view json_text, const fs::path& source, const fs::
   scene.name = r.string_or("name", source.stem().string());
   if (scene.name.empty()) r.fail("scene.name: must not be empty");
   scene.room = read_room(r.required("room"), source);
-  const json& objects = array_at(r, "objects", false);
+  const json& objects = r.array("objects", false);
   for (std::size_t i = 0; i < objects.size(); ++i)
     scene.objects.push_back(read_object(objects[i], i, source, base_dir));
-  const json& measurements = array_at(r, "measurements", false);
+  const json& measurements = r.array("measurements", false);
   for (std::size_t i = 0; i < measurements.size(); ++i)
     scene.measurements.push_back(read_measurement(measurements[i], i, source));
   if (const json* scanner = r.optional("scanner")) scene.scanner = read_scanner(*scanner, source);

@@ -1,3 +1,4 @@
+#include <locard/core/disjoint_sets.hpp>
 #include <locard/core/error.hpp>
 #include <locard/core/kdtree.hpp>
 #include <locard/surface/mesh_cleanup.hpp>
@@ -15,23 +16,6 @@
 
 namespace locard {
 namespace {
-
-// Union-find over vertices.
-struct DisjointSets {
-  std::vector<std::uint32_t> parent;
-  explicit DisjointSets(std::size_t n) : parent(n) {
-    std::iota(parent.begin(), parent.end(), 0u);
-  }
-  std::uint32_t find(std::uint32_t x) {
-    while (parent[x] != x) x = parent[x] = parent[parent[x]];
-    return x;
-  }
-  void unite(std::uint32_t a, std::uint32_t b) {
-    a = find(a);
-    b = find(b);
-    if (a != b) parent[std::max(a, b)] = std::min(a, b);
-  }
-};
 
 std::uint64_t edge_key(std::uint32_t a, std::uint32_t b) {
   return (static_cast<std::uint64_t>(a) << 32) | b;

@@ -350,7 +350,7 @@ ApiResponse CaseApi::measure(std::string_view body) {
   step.step = "measure";
   step.parameters_json = json{{"source", "viewer"},
                               {"name", name},
-                              {"kind", "point-to-point"},
+                              {"kind", "point_to_point"},  // as `locard measure` logs it
                               {"a", to_json(a)},
                               {"b", to_json(b)}}
                              .dump();
@@ -432,39 +432,27 @@ ApiResponse CaseApi::trajectory(std::string_view body) {
   input.name = optional_string(request, "name", 200);
   const bool save = optional_bool(request, "save", true);
 
-  const fs::path relative = "trajectories/analyses.json";
-  std::vector<forensics::TrajectoryAnalysis> analyses;
-  if (is_regular(impl_->root / relative))
-    analyses = forensics::read_trajectory_analyses(impl_->root / relative);
-  if (input.name.empty()) input.name = fmt::format("T{}", analyses.size() + 1);
-  const forensics::TrajectoryAnalysis analysis =
-      forensics::analyse_trajectory(&impl_->model(), input);
-  json out = to_json(analysis);
-  if (save) {
-    forensics::CaseFolder folder = impl_->folder(forensics::CaseAccess::Change);
-    forensics::CaseChange change(folder, {relative, "trajectories/analyses.csv"});
-    // Read again under the lock: another writer may have added one since.
-    analyses = is_regular(impl_->root / relative)
-                   ? forensics::read_trajectory_analyses(impl_->root / relative)
-                   : std::vector<forensics::TrajectoryAnalysis>{};
-    analyses.push_back(analysis);
-    forensics::write_trajectory_analyses(folder.path(relative), analyses);
-    forensics::LogStep step;
-    step.step = "trajectory";
-    step.parameters_json = json{{"source", "viewer"},
-                                {"name", input.name},
-                                {"points", json::array({to_json(input.points[0]),
-                                                        to_json(input.points[1])})},
-                                {"coverage_factor", input.coverage_factor},
-                                {"min_gap_m", input.min_gap_m},
-                                {"max_range_m", input.max_range_m}}
-                               .dump();
-    step.outputs = {relative, "trajectories/analyses.csv"};
-    step.duration_s =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    out["log_seq"] = change.commit(step);
+  forensics::TrajectoryAnalysis analysis = forensics::analyse_trajectory(&impl_->model(), input);
+  if (!save) {  // a preview: named as it would be stored
+    const fs::path stored = impl_->root / "trajectories/analyses.json";
+    if (analysis.name.empty())
+      analysis.name = fmt::format(
+          "T{}", (is_regular(stored) ? forensics::read_trajectory_analyses(stored).size() : 0) + 1);
+    return json_response(to_json(analysis), 200);
   }
-  return json_response(out, save ? 201 : 200);
+  forensics::CaseFolder folder = impl_->folder(forensics::CaseAccess::Change);
+  const json parameters{{"source", "viewer"},
+                        {"name", input.name},
+                        {"points", json::array({to_json(input.points[0]), to_json(input.points[1])})},
+                        {"coverage_factor", input.coverage_factor},
+                        {"min_gap_m", input.min_gap_m},
+                        {"max_range_m", input.max_range_m}};
+  const forensics::RecordedTrajectory recorded = forensics::record_trajectory_analysis(
+      folder, std::move(analysis), parameters.dump(),
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+  json out = to_json(recorded.analysis);
+  out["log_seq"] = recorded.log_seq;
+  return json_response(out, 201);
 }
 
 ApiResponse CaseApi::measurements() {

@@ -248,10 +248,15 @@ struct FrameAlignment {
   }
 };
 
+// How a loop candidate was proposed: the cameras' poses are near each other, or feature
+// registration (FPFH + RANSAC) found the overlap (first and last keyframes of a piece).
+enum class LoopSource { Proximity, Features };
+std::string_view to_string(LoopSource source);  // "proximity", "features"
+
 struct LoopCandidate {
   std::size_t source = 0;  // sequence indices
   std::size_t target = 0;
-  std::string found_by;    // "proximity" or "features"
+  LoopSource found_by = LoopSource::Proximity;
   bool accepted = false;   // verified and kept through the pose graph
   std::string reason;      // why rejected
   double fitness = 0.0;

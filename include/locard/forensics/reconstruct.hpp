@@ -21,25 +21,45 @@
 // that this one view sits at its known pose (the gauge of the pose graph; the other poses stay
 // estimated), giving the scene's z-up frame.
 
+#include <locard/alignment/sequential_alignment.hpp>
 #include <locard/core/progress.hpp>
+#include <locard/forensics/report.hpp>
+#include <locard/io/mesh_export.hpp>
 #include <locard/io/rgbd_sequence.hpp>
+#include <locard/registration/icp.hpp>
 
 #include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace locard::forensics {
 
+// Where the registration of range scans starts.
+enum class ScanPoseSource { Input, Global };
+std::string_view to_string(ScanPoseSource source);  // "input", "global"
+std::optional<ScanPoseSource> parse_scan_pose_source(std::string_view name);
+
+// The case's world frame: the first view's ground-truth pose where the data has one, or the
+// first camera's frame regardless.
+enum class WorldFrameChoice { Auto, FirstCamera };
+std::string_view to_string(WorldFrameChoice choice);  // "auto", "first-camera"
+std::optional<WorldFrameChoice> parse_world_frame_choice(std::string_view name);
+
+// "ply,glb,obj,fbx" and back (InputError naming an unknown format).
+std::string mesh_formats_text(const std::vector<MeshFormat>& formats);
+std::vector<MeshFormat> parse_mesh_formats(std::string_view text);
+
 struct ReconstructParameters {
   // Alignment (see AlignmentOptions). The values here are AlignmentOptions{}'s; defaults_for()
   // sets mode, odometry_icp and max_depth_m from the sequence's traits.
-  std::string mode = "cumulative";
-  // Odometry mode's last ICP level: "colored" where colour is registered to depth,
-  // "point-to-plane" where it is not (7-Scenes' Kinect v1).
-  std::string odometry_icp = "colored";
+  AlignmentMode mode = AlignmentMode::Cumulative;
+  // Odometry mode's last ICP level: coloured where colour is registered to depth,
+  // point-to-plane where it is not (7-Scenes' Kinect v1). Never point-to-point.
+  IcpMethod odometry_icp = IcpMethod::Colored;
   double align_voxel_m = 0.02;
   int stride = 2;
   double min_depth_m = 0.3;
@@ -52,19 +72,20 @@ struct ReconstructParameters {
   double loop_min_fitness = 0.3;
   std::uint64_t seed = 0;
   // Range scans (a .conf, a folder of scans, an E57 of several; docs/laser-scans.md):
-  // "input": start from the poses the input gives (feature registration for scans without
-  // one); "global": ignore them, feature registration for every pair.
-  std::string scan_poses = "input";
+  // Input: start from the poses the input gives (feature registration for scans without
+  // one); Global: ignore them, feature registration for every pair.
+  ScanPoseSource scan_poses = ScanPoseSource::Input;
   double scan_voxel_m = 0.0;  // surface sampling; 0: twice the scans' median point spacing
   // Surface
   double mesh_voxel_m = 0.01;
   double truncation_m = 0.0;  // 0: 4 voxels
   std::size_t min_component = 500;
-  std::string formats = "ply,glb,obj,fbx";
-  std::string up = "y";  // the up axis of the OBJ and FBX exports: y or z (mesh_export.hpp)
+  std::vector<MeshFormat> formats = {MeshFormat::Ply, MeshFormat::Glb, MeshFormat::Obj,
+                                     MeshFormat::Fbx};  // JSON: "ply,glb,obj,fbx"
+  UpAxis up = UpAxis::Y;  // the up axis of the OBJ and FBX exports (mesh_export.hpp)
   double cloud_voxel_m = 0.005;
-  // Gauge: "auto" (ground truth of the first view when known), "first-camera"
-  std::string world_frame = "auto";
+  // Gauge: Auto (ground truth of the first view when known), FirstCamera
+  WorldFrameChoice world_frame = WorldFrameChoice::Auto;
   // Measurements
   std::filesystem::path reference;  // empty: INPUT/measurements.json when present
   double snap_radius_m = 0.03;
@@ -72,11 +93,12 @@ struct ReconstructParameters {
   bool pdf = true;
   int render_width = 640;
   int render_height = 400;
-  std::string paper = "A4";  // the PDF's page: A4 or letter
+  PaperSize paper = PaperSize::A4;  // the PDF's page
   std::string title;  // default: "Case <folder name>"
 
-  // Every field as a JSON object (text) and back; unknown keys in a --config file are an
-  // InputError naming the key and the file.
+  // Every field as a JSON object (text) and back, enums by their names ("cumulative",
+  // "point-to-plane", "ply,glb", ...); unknown keys, wrong types and unknown names in a
+  // --config file are an InputError naming the key and the file.
   std::string to_json() const;
   static ReconstructParameters from_json_file(const std::filesystem::path& path,
                                               const ReconstructParameters& defaults);

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <vector>
 
 namespace locard {
@@ -20,6 +21,11 @@ class Raycaster;
 }
 
 namespace locard::forensics {
+
+// The PDF's page (CSS @page size): "A4" (the default) or "letter".
+enum class PaperSize { A4, Letter };
+std::string_view to_string(PaperSize paper);
+std::optional<PaperSize> parse_paper_size(std::string_view name);
 
 class CaseFolder;
 
@@ -37,7 +43,7 @@ struct ReportOptions {
   int render_width = 640;
   int render_height = 400;
   bool pdf = true;
-  std::string paper = "A4";  // CSS @page size: "A4" (the default) or "letter"
+  PaperSize paper = PaperSize::A4;  // CSS @page size
 };
 
 struct ReportResult {

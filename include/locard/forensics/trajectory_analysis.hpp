@@ -29,6 +29,8 @@
 
 namespace locard::forensics {
 
+class CaseFolder;
+
 struct TrajectoryInput {
   std::string name;
   std::vector<Eigen::Vector3d> points;  // 2: entry and exit; 3+: along a rod
@@ -76,5 +78,18 @@ std::string trajectory_analyses_csv(const std::vector<TrajectoryAnalysis>& analy
 // Writes analyses.json and analyses.csv beside it (atomic each); the caller logs both.
 void write_trajectory_analyses(const std::filesystem::path& json_path,
                                const std::vector<TrajectoryAnalysis>& analyses);
+
+// How a trajectory analysis enters a case, from the CLI and the viewer alike: appended to
+// trajectories/analyses.json (+ .csv) as one logged step "trajectory" with `parameters_json`,
+// under the case's lock (read again there: another writer may have added one). An empty name
+// becomes "T<n>"; a name the case already has is an InputError. Returns the analysis as stored
+// and the step's log sequence number.
+struct RecordedTrajectory {
+  TrajectoryAnalysis analysis;
+  std::size_t log_seq = 0;
+};
+RecordedTrajectory record_trajectory_analysis(CaseFolder& folder, TrajectoryAnalysis analysis,
+                                              const std::string& parameters_json,
+                                              double duration_s);
 
 }  // namespace locard::forensics
