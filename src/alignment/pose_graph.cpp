@@ -6,6 +6,7 @@
 
 #include <ceres/ceres.h>
 #include <ceres/manifold.h>
+#include <ceres/rotation.h>
 #include <fmt/format.h>
 
 #include <Eigen/Cholesky>
@@ -181,6 +182,34 @@ double edge_chi2(const PoseGraphEdge& edge, const std::vector<Isometry3d>& nodes
   const Vector6d xi = edge_error<double>(q_t, T_w_t.translation(), q_s, T_w_s.translation(), q_z,
                                          edge.T_target_source.translation());
   return xi.dot(edge.information * xi);
+}
+
+EdgeJacobians edge_jacobians(const PoseGraphEdge& edge, const std::vector<Isometry3d>& nodes) {
+  // Jets over the 12 perturbation parameters: delta_source (0-5), delta_target (6-11).
+  using Jet = ceres::Jet<double, 12>;
+  const auto perturbed = [](const Isometry3d& T, int first, Eigen::Quaternion<Jet>& q,
+                            Eigen::Matrix<Jet, 3, 1>& p) {
+    Jet rotation[3], q_delta[4];  // rotation vector; its quaternion (w, x, y, z)
+    for (int i = 0; i < 3; ++i) rotation[i] = Jet(0.0, first + i);
+    ceres::AngleAxisToQuaternion(rotation, q_delta);
+    const Eigen::Quaternion<Jet> dq(q_delta[0], q_delta[1], q_delta[2], q_delta[3]);
+    q = dq * Eigen::Quaterniond(T.linear()).cast<Jet>();
+    p = dq * T.translation().cast<Jet>();
+    for (int i = 0; i < 3; ++i) p[i] += Jet(0.0, first + 3 + i);
+  };
+  Eigen::Quaternion<Jet> q_s, q_t;
+  Eigen::Matrix<Jet, 3, 1> p_s, p_t;
+  perturbed(nodes.at(edge.source), 0, q_s, p_s);
+  perturbed(nodes.at(edge.target), 6, q_t, p_t);
+  const Eigen::Quaterniond q_z(edge.T_target_source.linear());
+  const Eigen::Matrix<Jet, 6, 1> xi =
+      edge_error<Jet>(q_t, p_t, q_s, p_s, q_z, edge.T_target_source.translation());
+  EdgeJacobians J;
+  for (int r = 0; r < 6; ++r) {
+    J.source.row(r) = xi[r].v.head<6>().transpose();
+    J.target.row(r) = xi[r].v.tail<6>().transpose();
+  }
+  return J;
 }
 
 PoseGraphResult optimize_pose_graph(PoseGraph& graph, const PoseGraphOptions& options) {

@@ -198,6 +198,50 @@ TEST(PoseGraph, Chi2IsZeroAtConsistentPosesAndGrowsQuadratically) {
   EXPECT_NEAR(c2 / c1, 4.0, 1e-6);
 }
 
+// The Jacobians pose_covariances uses, against an independent oracle: central differences of
+// the residual as the header defines it (E = (T_w_t^-1 T_w_s) Z^-1, xi = (2 vec(q_E), p_E),
+// q_E with w >= 0), written out again here, under world-frame left perturbations exp(delta) T,
+// at a measurement that does not match the poses (a residual far from zero, where a wrong sign
+// or frame would show).
+TEST(PoseGraph, EdgeJacobiansMatchCentralDifferences) {
+  using Vector6d = Eigen::Matrix<double, 6, 1>;
+  const auto truth = circle(5);
+  const std::vector<Isometry3d> nodes = {truth[1], truth[3]};
+  const Isometry3d Z = pose(0.3, Eigen::Vector3d(0.2, -0.1, 0.05), 0.1) *
+                       (truth[3].inverse() * truth[1]);
+  const auto residual = [&](const Isometry3d& T_w_s, const Isometry3d& T_w_t) {
+    const Isometry3d E = T_w_t.inverse() * T_w_s * Z.inverse();
+    Eigen::Quaterniond q(E.rotation());
+    if (q.w() < 0) q.coeffs() *= -1.0;
+    Vector6d xi;
+    xi << 2.0 * q.vec(), E.translation();
+    return xi;
+  };
+  const auto perturb = [](const Isometry3d& T, const Vector6d& d) {
+    Isometry3d D = Isometry3d::Identity();
+    const Eigen::Vector3d w = d.head<3>();
+    if (w.norm() > 0) D.linear() = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix();
+    D.translation() = d.tail<3>();
+    return D * T;
+  };
+  ASSERT_GT(residual(nodes[0], nodes[1]).norm(), 0.1);
+  const EdgeJacobians J = edge_jacobians(edge(0, 1, Z, false), nodes);
+  constexpr double h = 1e-6;
+  for (int c = 0; c < 6; ++c) {
+    Vector6d d = Vector6d::Zero();
+    d[c] = h;
+    const Vector6d source = (residual(perturb(nodes[0], d), nodes[1]) -
+                             residual(perturb(nodes[0], -d), nodes[1])) / (2 * h);
+    const Vector6d target = (residual(nodes[0], perturb(nodes[1], d)) -
+                             residual(nodes[0], perturb(nodes[1], -d))) / (2 * h);
+    EXPECT_LT((J.source.col(c) - source).cwiseAbs().maxCoeff(), 1e-7) << "source column " << c;
+    EXPECT_LT((J.target.col(c) - target).cwiseAbs().maxCoeff(), 1e-7) << "target column " << c;
+  }
+  // Not a zero matrix by accident: the rotation of a node moves every residual component.
+  EXPECT_GT(J.source.norm(), 1.0);
+  EXPECT_GT(J.target.norm(), 1.0);
+}
+
 TEST(PoseGraph, SameGraphSameResultBitForBit) {
   const auto truth = circle(16);
   PoseGraph g;

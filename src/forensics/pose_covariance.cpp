@@ -10,32 +10,6 @@
 #include <algorithm>
 
 namespace locard::forensics {
-namespace {
-
-using Vector6d = Eigen::Matrix<double, 6, 1>;
-
-// exp(delta) T with delta = (rotation vector, translation), world-frame left perturbation.
-Isometry3d perturb(const Isometry3d& T, const Vector6d& delta) {
-  Isometry3d D = Isometry3d::Identity();
-  const Eigen::Vector3d w = delta.head<3>();
-  if (w.norm() > 0) D.linear() = Eigen::AngleAxisd(w.norm(), w.normalized()).toRotationMatrix();
-  D.translation() = delta.tail<3>();
-  return D * T;
-}
-
-// The edge residual of pose_graph.hpp: E = (T_t^-1 T_s) Z^-1, xi = (2 vec(q_E), p_E).
-Vector6d edge_residual(const Isometry3d& T_w_s, const Isometry3d& T_w_t,
-                       const Isometry3d& T_t_s_measured) {
-  const Isometry3d E = T_w_t.inverse() * T_w_s * T_t_s_measured.inverse();
-  Eigen::Quaterniond q(E.rotation());
-  if (q.w() < 0) q.coeffs() *= -1.0;
-  Vector6d xi;
-  xi.head<3>() = 2.0 * q.vec();
-  xi.tail<3>() = E.translation();
-  return xi;
-}
-
-}  // namespace
 
 std::vector<Matrix6d> pose_covariances(const PoseGraph& graph,
                                        const std::vector<double>& residual_sigma_m,
@@ -49,7 +23,6 @@ std::vector<Matrix6d> pose_covariances(const PoseGraph& graph,
   auto block = [&](std::size_t k) { return static_cast<int>(6 * (k < fixed_node ? k : k - 1)); };
   const int dim = static_cast<int>(6 * (n - 1));
   std::vector<Eigen::Triplet<double>> triplets;
-  constexpr double h = 1e-6;
   for (std::size_t e = 0; e < graph.edges.size(); ++e) {
     const PoseGraphEdge& edge = graph.edges[e];
     if (edge.source >= n || edge.target >= n)
@@ -57,20 +30,10 @@ std::vector<Matrix6d> pose_covariances(const PoseGraph& graph,
     const double sigma = residual_sigma_m.size() == 1 ? residual_sigma_m[0] : residual_sigma_m[e];
     const double weight = (edge.uncertain ? edge.confidence : 1.0) / (sigma * sigma);
     if (!(weight > 0) || !std::isfinite(weight)) continue;
-    const Isometry3d& Ts = graph.nodes[edge.source];
-    const Isometry3d& Tt = graph.nodes[edge.target];
-    Matrix6d Js, Jt;  // d xi / d delta (central differences)
-    for (int c = 0; c < 6; ++c) {
-      Vector6d d = Vector6d::Zero();
-      d[c] = h;
-      Js.col(c) = (edge_residual(perturb(Ts, d), Tt, edge.T_target_source) -
-                   edge_residual(perturb(Ts, -d), Tt, edge.T_target_source)) / (2 * h);
-      Jt.col(c) = (edge_residual(Ts, perturb(Tt, d), edge.T_target_source) -
-                   edge_residual(Ts, perturb(Tt, -d), edge.T_target_source)) / (2 * h);
-    }
+    const EdgeJacobians J = edge_jacobians(edge, graph.nodes);
     const Matrix6d L = weight * edge.information;
     const std::size_t ids[2] = {edge.source, edge.target};
-    const Matrix6d* Js_t[2] = {&Js, &Jt};
+    const Matrix6d* Js_t[2] = {&J.source, &J.target};
     for (int a = 0; a < 2; ++a)
       for (int b = 0; b < 2; ++b) {
         if (ids[a] == fixed_node || ids[b] == fixed_node) continue;

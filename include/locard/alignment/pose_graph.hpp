@@ -94,6 +94,17 @@ struct PoseGraphResult {
 // chi2 of one edge at the given node poses (see above).
 double edge_chi2(const PoseGraphEdge& edge, const std::vector<Isometry3d>& nodes);
 
+// The derivatives of an edge's residual xi (the one the solver minimises, unweighted) with
+// respect to world-frame left perturbations exp(delta) T_w_node of its two nodes, delta =
+// (rotation vector, translation), at the given poses; by Ceres' automatic differentiation
+// (jets), so exact, not finite differences. forensics::pose_covariances builds the pose graph's
+// Hessian from them.
+struct EdgeJacobians {
+  Matrix6d source;  // d xi / d delta_source
+  Matrix6d target;  // d xi / d delta_target
+};
+EdgeJacobians edge_jacobians(const PoseGraphEdge& edge, const std::vector<Isometry3d>& nodes);
+
 // Optimises graph.nodes in place; edges that do not survive are moved from graph.edges into
 // result.rejected. Throws InputError for an edge naming a missing node, a non-symmetric or
 // non-finite information matrix, or a fixed node out of range.

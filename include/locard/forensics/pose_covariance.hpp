@@ -4,7 +4,8 @@
 //
 // Each kept edge contributes J^T (Lambda / sigma^2) J, J the derivative of the edge residual xi
 // (pose_graph.hpp) with respect to left perturbations exp(delta) T_world_node of its two nodes
-// (taken by central differences, delta = (rotation, translation) in the world frame), Lambda its
+// (edge_jacobians: Ceres' automatic differentiation of the very residual the pose graph solves,
+// delta = (rotation, translation) in the world frame), Lambda its
 // information matrix (a sum over ICP correspondences of unit-weight terms, so it is scaled by
 // the correspondences' residual variance sigma^2: the inlier RMSE of the registration, at
 // least the sensor's noise floor). Loop edges are weighted by their line-process weight.
