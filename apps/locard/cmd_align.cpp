@@ -50,19 +50,11 @@ struct AlignCliOptions {
   std::optional<std::string> mode;
   std::optional<std::string> odometry_icp;
   std::optional<std::string> tripod_icp;
-  double voxel = 0.02;
-  int stride = 2;
-  double min_depth = 0.3;
   std::optional<double> max_depth;
-  std::size_t first = 0;
-  std::size_t frames = 0;
+  // The flags below are bound to these fields: their defaults are AlignmentOptions{}'s, the
+  // one place they are written (sequential_alignment.hpp).
+  AlignmentOptions tuning;
   bool no_loop_closure = false;
-  double loop_max_angle = 20.0;
-  double loop_max_distance = 1.0;
-  double loop_min_fitness = 0.3;
-  std::size_t keyframe_interval = 5;
-  std::size_t local_model_frames = 8;
-  std::uint64_t seed = 0;
   bool force = false;
 };
 
@@ -167,7 +159,7 @@ int run_align_scans(const AlignCliOptions& opt, const GlobalOptions& global, con
   std::vector<PointCloud> scans;
   for (const fs::path& f : files) scans.push_back(read_point_cloud(f));
   ScanAlignmentOptions o;
-  o.seed = opt.seed;
+  o.seed = opt.tuning.seed;
   const ScanAlignmentResult r = align_scans(scans, o);
 
   fs::create_directories(opt.output);
@@ -226,7 +218,7 @@ int run_align_scans(const AlignCliOptions& opt, const GlobalOptions& global, con
     nlohmann::json j = {{"convention", "T_world_scan maps scan points into the first scan's "
                                        "frame; aligned.conf uses the Stanford convention "
                                        "[R(q)^T | t]"},
-                        {"seed", opt.seed},
+                        {"seed", opt.tuning.seed},
                         {"scans", jscans},
                         {"pairs", jpairs},
                         {"seconds", r.seconds}};
@@ -296,30 +288,19 @@ int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
   const RgbdSequence sequence = open_rgbd_sequence(opt.sequence);
 
   // Defaults from what the data is; the flags the user gave override them.
-  AlignmentOptions o = default_alignment_options(sequence.traits);
+  AlignmentOptions o = default_alignment_options(sequence.traits, opt.tuning);
   if (mode) o.mode = *mode;
   if (odometry_icp) o.odometry_method = *odometry_icp;
   if (tripod_icp) o.tripod_method = *tripod_icp;
   if (opt.max_depth) o.max_depth_m = *opt.max_depth;
-  o.voxel_size = opt.voxel;
-  o.stride = opt.stride;
-  o.min_depth_m = opt.min_depth;
   if (!global.quiet)
     fmt::print("align: data: {} ({}); {} mode{}, {} ICP for odometry, depth to {:.1f} m\n",
                describe(sequence.traits), sequence.traits.source, to_string(o.mode),
                opt.mode ? " (--mode)" : "", to_string(o.odometry_method), o.max_depth_m);
-  o.first_frame = opt.first;
-  o.max_frames = opt.frames;
   o.loop_closure = !opt.no_loop_closure;
-  o.loop_max_angle_deg = opt.loop_max_angle;
-  o.loop_max_distance_m = opt.loop_max_distance;
-  o.loop_min_fitness = opt.loop_min_fitness;
-  o.keyframe_interval = opt.keyframe_interval;
-  o.local_model_frames = opt.local_model_frames;
-  o.seed = opt.seed;
-  o.pose_graph.max_correspondence_distance = 1.5 * opt.voxel;
+  o.pose_graph.max_correspondence_distance = 1.5 * o.voxel_size;
   const std::size_t total =
-      opt.frames ? std::min(opt.frames, sequence.frames.size() - std::min(opt.first, sequence.frames.size()))
+      o.max_frames ? std::min(o.max_frames, sequence.frames.size() - std::min(o.first_frame, sequence.frames.size()))
                  : sequence.frames.size();
   ProgressBar bar("align", total, ProgressBar::should_show(global.quiet));
   o.progress = bar.callback();
@@ -337,7 +318,7 @@ int run_align(const AlignCliOptions& opt, const GlobalOptions& global) {
     write_tum_trajectory(out / ("trajectory" + suffix + ".txt"),
                          result.trajectory(static_cast<long>(p)));
     const PointCloud fused =
-        fuse_aligned_frames(sequence, result, opt.voxel / 2.0, static_cast<long>(p));
+        fuse_aligned_frames(sequence, result, o.voxel_size / 2.0, static_cast<long>(p));
     if (!fused.empty()) write_point_cloud(out / ("fused" + suffix + ".ply"), fused);
   }
 
@@ -421,36 +402,36 @@ void register_align(CLI::App& app, GlobalOptions& global) {
   cmd->add_option("--tripod-icp", options->tripod_icp,
                   "Cumulative (tripod) mode, last ICP level: colored or point-to-plane; "
                   "default: from the data (colored when colour is registered to depth)");
-  cmd->add_option("--voxel", options->voxel, "Voxel size of frames and model (m)")
+  cmd->add_option("--voxel", options->tuning.voxel_size, "Voxel size of frames and model (m)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
-  cmd->add_option("--stride", options->stride, "Depth pixel stride")
+  cmd->add_option("--stride", options->tuning.stride, "Depth pixel stride")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
-  cmd->add_option("--min-depth", options->min_depth, "Nearest depth used (m)")->capture_default_str();
+  cmd->add_option("--min-depth", options->tuning.min_depth_m, "Nearest depth used (m)")->capture_default_str();
   cmd->add_option("--max-depth", options->max_depth,
                   "Farthest depth used (m); default: from the data (structured light 3, time "
                   "of flight 4.5, synthetic 8)");
-  cmd->add_option("--first", options->first, "First frame (index in the sequence)");
-  cmd->add_option("--frames", options->frames, "Number of frames (0: all)");
+  cmd->add_option("--first", options->tuning.first_frame, "First frame (index in the sequence)");
+  cmd->add_option("--frames", options->tuning.max_frames, "Number of frames (0: all)");
   cmd->add_flag("--no-loop-closure", options->no_loop_closure, "Skip loop closure");
-  cmd->add_option("--loop-max-angle", options->loop_max_angle,
+  cmd->add_option("--loop-max-angle", options->tuning.loop_max_angle_deg,
                   "Loop candidates: cameras within this viewing angle (degrees)")
       ->capture_default_str();
-  cmd->add_option("--loop-max-distance", options->loop_max_distance,
+  cmd->add_option("--loop-max-distance", options->tuning.loop_max_distance_m,
                   "Loop candidates: cameras within this distance (m)")
       ->capture_default_str();
-  cmd->add_option("--loop-min-fitness", options->loop_min_fitness,
+  cmd->add_option("--loop-min-fitness", options->tuning.loop_min_fitness,
                   "Loop verification: least ICP fitness")
       ->capture_default_str();
-  cmd->add_option("--local-model-frames", options->local_model_frames,
+  cmd->add_option("--local-model-frames", options->tuning.local_model_frames,
                   "Odometry mode: keyframes in the local model each frame is tracked against")
       ->capture_default_str();
-  cmd->add_option("--keyframe-interval", options->keyframe_interval,
+  cmd->add_option("--keyframe-interval", options->tuning.keyframe_interval,
                   "Odometry mode: registered frames between keyframes")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
-  cmd->add_option("--seed", options->seed, "RANSAC seed")->capture_default_str();
+  cmd->add_option("--seed", options->tuning.seed, "RANSAC seed")->capture_default_str();
   cmd->add_flag("--force", options->force, "Write into a folder that is not empty");
   set_runner(cmd, [options, &global] { return run_align(*options, global); });
 }

@@ -14,8 +14,8 @@ double default_max_depth_m(DepthSensorKind sensor) {
   return 4.0;
 }
 
-AlignmentOptions default_alignment_options(const SequenceTraits& traits) {
-  AlignmentOptions o;
+AlignmentOptions default_alignment_options(const SequenceTraits& traits, AlignmentOptions base) {
+  AlignmentOptions o = std::move(base);
   switch (traits.capture) {
     case CaptureKind::TripodTurn:
       o.mode = AlignmentMode::Cumulative;

@@ -23,8 +23,10 @@
 
 namespace locard {
 
-// AlignmentOptions{} with mode, max_depth_m, odometry_method and ring_sizes set from `traits`.
-AlignmentOptions default_alignment_options(const SequenceTraits& traits);
+// `base` (AlignmentOptions{} unless given: the one place the tuning defaults live) with mode,
+// max_depth_m, odometry_method, refinement_color and ring_sizes set from `traits`.
+AlignmentOptions default_alignment_options(const SequenceTraits& traits,
+                                           AlignmentOptions base = {});
 
 // Farthest depth used for alignment and for fusion (metres), by sensor kind.
 double default_max_depth_m(DepthSensorKind sensor);

@@ -27,6 +27,7 @@
 #include <locard/io/mesh_export.hpp>
 #include <locard/io/rgbd_sequence.hpp>
 #include <locard/registration/icp.hpp>
+#include <locard/surface/tsdf_volume.hpp>
 
 #include <cstdint>
 #include <filesystem>
@@ -53,23 +54,30 @@ std::optional<WorldFrameChoice> parse_world_frame_choice(std::string_view name);
 std::string mesh_formats_text(const std::vector<MeshFormat>& formats);
 std::vector<MeshFormat> parse_mesh_formats(std::string_view text);
 
+// The tuning defaults the parameters start from: AlignmentOptions{}'s and TsdfOptions{}'s, the
+// one place each is written.
+inline const AlignmentOptions& alignment_option_defaults() {
+  static const AlignmentOptions defaults;
+  return defaults;
+}
+
 struct ReconstructParameters {
-  // Alignment (see AlignmentOptions). The values here are AlignmentOptions{}'s; defaults_for()
-  // sets mode, odometry_icp and max_depth_m from the sequence's traits.
+  // Alignment (see AlignmentOptions), with AlignmentOptions{}'s values; defaults_for() sets
+  // mode, odometry_icp and max_depth_m from the sequence's traits.
   AlignmentMode mode = AlignmentMode::Cumulative;
   // Odometry mode's last ICP level: coloured where colour is registered to depth,
   // point-to-plane where it is not (7-Scenes' Kinect v1). Never point-to-point.
   IcpMethod odometry_icp = IcpMethod::Colored;
-  double align_voxel_m = 0.02;
-  int stride = 2;
-  double min_depth_m = 0.3;
-  double max_depth_m = 4.0;
+  double align_voxel_m = alignment_option_defaults().voxel_size;
+  int stride = alignment_option_defaults().stride;
+  double min_depth_m = alignment_option_defaults().min_depth_m;
+  double max_depth_m = alignment_option_defaults().max_depth_m;
   std::size_t first_frame = 0;
   std::size_t max_frames = 0;  // 0: all
-  bool loop_closure = true;
-  double loop_max_angle_deg = 20.0;
-  double loop_max_distance_m = 1.0;
-  double loop_min_fitness = 0.3;
+  bool loop_closure = alignment_option_defaults().loop_closure;
+  double loop_max_angle_deg = alignment_option_defaults().loop_max_angle_deg;
+  double loop_max_distance_m = alignment_option_defaults().loop_max_distance_m;
+  double loop_min_fitness = alignment_option_defaults().loop_min_fitness;
   std::uint64_t seed = 0;
   // Range scans (a .conf, a folder of scans, an E57 of several; docs/laser-scans.md):
   // Input: start from the poses the input gives (feature registration for scans without
@@ -77,7 +85,7 @@ struct ReconstructParameters {
   ScanPoseSource scan_poses = ScanPoseSource::Input;
   double scan_voxel_m = 0.0;  // surface sampling; 0: twice the scans' median point spacing
   // Surface
-  double mesh_voxel_m = 0.01;
+  double mesh_voxel_m = TsdfOptions{}.voxel_size;
   double truncation_m = 0.0;  // 0: 4 voxels
   std::size_t min_component = 500;
   std::vector<MeshFormat> formats = {MeshFormat::Ply, MeshFormat::Glb, MeshFormat::Obj,
