@@ -74,44 +74,17 @@ IcpResult refine(const PointCloud& source_fine, const PointCloud& source_coarse,
   const double v = o.voxel_size;
   IcpOptions options = plane_options(v);
   options.pose_prior = prior;
-  struct Level {
-    const IcpTarget* prepared;  // point to plane
-    const IcpTarget* colored;
-    const PointCloud* source;
-    const PointCloud* target;
-    double gate;
-    int iterations;
-  };
-  const Level levels[3] = {
-      {target.coarse_icp.get(), nullptr, &source_coarse, &target.coarse, 4.0 * v, 30},
-      {target.fine_icp.get(), nullptr, &source_fine, &target.fine, 2.0 * v, 20},
-      {target.fine_icp.get(), target.fine_colored_icp.get(), &source_fine, &target.fine, v, 15}};
-  Isometry3d T = init;
-  IcpResult r;
-  int iterations = 0;
-  for (int level = 0; level < 3; ++level) {
-    options.max_correspondence_distance = levels[level].gate;
-    options.convergence.max_iterations = levels[level].iterations;
-    if (level == 2 && method == IcpMethod::Colored && source_fine.has_colors() &&
-        target.fine.has_colors())
-      options.method = IcpMethod::Colored;
-    if (levels[level].source->size() < options.min_points ||
-        levels[level].target->size() < options.min_points) {
-      r.success = false;
-      r.reason = fmt::format("level {}: too few points", level + 1);
-      return r;
-    }
-    r = run_level(*levels[level].source, *levels[level].target,
-                  {levels[level].prepared, levels[level].colored}, T, options);
-    iterations += r.iterations;
-    if (!r.success) {
-      r.reason = fmt::format("level {} of 3: {}", level + 1, r.reason);
-      break;
-    }
-    T = r.T_target_source;
-  }
-  r.iterations = iterations;
-  return r;
+  const bool colored = method == IcpMethod::Colored && source_fine.has_colors() &&
+                       target.fine.has_colors();
+  const IcpTarget* last = colored ? target.fine_colored_icp.get() : target.fine_icp.get();
+  const std::vector<IcpLevel> levels = {
+      {"level 1 of 3", &source_coarse, &target.coarse, target.coarse_icp.get(),
+       IcpMethod::PointToPlane, 4.0 * v, 30, true},
+      {"level 2 of 3", &source_fine, &target.fine, target.fine_icp.get(), IcpMethod::PointToPlane,
+       2.0 * v, 20, true},
+      {"level 3 of 3", &source_fine, &target.fine, last,
+       colored ? IcpMethod::Colored : IcpMethod::PointToPlane, v, 15, true}};
+  return icp_levels(levels, init, options);
 }
 
 bool acceptable(const IcpResult& r, const AlignmentOptions& o, double min_fitness) {

@@ -31,28 +31,19 @@ struct ScanAlignmentState {
   std::vector<std::size_t> node_of;  // scan -> graph node (SIZE_MAX: none)
 };
 
-// Point-to-plane ICP over the given gates (each level starts from the previous estimate).
+// Point-to-plane ICP over the given gates (each level starts from the previous estimate), the
+// target prepared once for all of them.
 IcpResult icp_gates(const PointCloud& source, const PointCloud& target, const Isometry3d& init,
                     const std::vector<double>& gates) {
   IcpOptions o;
   o.method = IcpMethod::PointToPlane;
   o.min_fitness = 0.0;  // acceptance is decided by the caller
-  o.convergence.max_iterations = 40;
-  Isometry3d T = init;
-  IcpResult r;
-  int iterations = 0;
-  for (double gate : gates) {
-    o.max_correspondence_distance = gate;
-    r = icp(source, target, T, o);
-    iterations += r.iterations;
-    if (!r.success) {
-      r.reason = fmt::format("gate {} m: {}", gate, r.reason);
-      break;
-    }
-    T = r.T_target_source;
-  }
-  r.iterations = iterations;
-  return r;
+  const IcpTarget prepared(target, o);
+  std::vector<IcpLevel> levels;
+  for (double gate : gates)
+    levels.push_back({fmt::format("gate {} m", gate), &source, &target, &prepared,
+                      IcpMethod::PointToPlane, gate, 40, false});
+  return icp_levels(levels, init, o);
 }
 
 void check_inputs(const std::vector<PointCloud>& scans, const ScanAlignmentOptions& o,

@@ -680,6 +680,43 @@ IcpResult icp(const PointCloud& source, const IcpTarget& target,
   return run_single(source, target.prepared_->target, init_T_target_source, options);
 }
 
+IcpResult icp_levels(const std::vector<IcpLevel>& levels, const Isometry3d& init_T_target_source,
+                     const IcpOptions& options) {
+  Isometry3d T = init_T_target_source;
+  IcpResult result;
+  std::vector<IcpLevelReport> reports;
+  int total_iterations = 0;
+  IcpOptions lo = options;
+  for (const IcpLevel& level : levels) {
+    lo.method = level.method;
+    lo.max_correspondence_distance = level.max_correspondence_distance;
+    lo.convergence.max_iterations = level.max_iterations;
+    if (level.skip_if_small && (level.source->size() < options.min_points ||
+                                level.target->size() < options.min_points)) {
+      result = IcpResult{};
+      result.reason = level.name + ": too few points";
+      break;
+    }
+    try {
+      result = level.prepared && level.prepared->method() == lo.method
+                   ? icp(*level.source, *level.prepared, T, lo)
+                   : icp(*level.source, *level.target, T, lo);
+    } catch (const InputError& e) {
+      throw InputError(fmt::format("{}: {}", level.name, e.what()));
+    }
+    total_iterations += result.iterations;
+    reports.insert(reports.end(), result.levels.begin(), result.levels.end());
+    if (!result.success) {
+      result.reason = fmt::format("{}: {}", level.name, result.reason);
+      break;
+    }
+    T = result.T_target_source;
+  }
+  result.iterations = total_iterations;
+  result.levels = std::move(reports);
+  return result;
+}
+
 IcpResult icp_multiscale(const PointCloud& source, const PointCloud& target,
                          const Isometry3d& init_T_target_source, const IcpOptions& options,
                          const std::vector<IcpScale>& scales) {
@@ -693,51 +730,50 @@ IcpResult icp_multiscale(const PointCloud& source, const PointCloud& target,
     for (const auto& p : cloud->positions) finite += p.allFinite();
     check_count(which, finite, cloud->size() - finite, std::max<std::size_t>(options.min_points, 3));
   }
-  Isometry3d T = init_T_target_source;
+  // Each level's clouds (voxel grid) and normal radius; levels run one after the other, so a
+  // level whose grid is not needed is never built (the loop stops at the first failure).
   IcpResult result;
-  std::vector<IcpLevelReport> levels;
+  Isometry3d T = init_T_target_source;
+  std::vector<IcpLevelReport> reports;
   int total_iterations = 0;
-  for (std::size_t level = 0; level < scales.size(); ++level) {
-    const IcpScale& s = scales[level];
+  for (std::size_t k = 0; k < scales.size(); ++k) {
+    const IcpScale& s = scales[k];
     IcpOptions lo = options;
-    lo.max_correspondence_distance = s.max_correspondence_distance;
-    lo.convergence.max_iterations = s.max_iterations;
     if (s.voxel_size > 0.0 && options.normal_radius <= 0.0) {
       lo.normal_radius = 2.0 * s.voxel_size;
       lo.normal_max_neighbors = 30;
     }
-    std::size_t source_nf = 0, target_nf = 0;
+    IcpLevel level;
+    level.name = fmt::format("level {} of {} (voxel {} m)", k + 1, scales.size(), s.voxel_size);
+    level.method = options.method;
+    level.max_correspondence_distance = s.max_correspondence_distance;
+    level.max_iterations = s.max_iterations;
+    VoxelGridResult vs, vt;
     try {
       if (s.voxel_size > 0.0) {
-        const VoxelGridResult vs = voxel_down_sample(source, static_cast<float>(s.voxel_size));
-        const VoxelGridResult vt = voxel_down_sample(target, static_cast<float>(s.voxel_size));
-        source_nf = vs.report.non_finite;
-        target_nf = vt.report.non_finite;
-        result = icp(vs.cloud, vt.cloud, T, lo);
-      } else {
-        result = icp(source, target, T, lo);
-        source_nf = result.source_non_finite;
-        target_nf = result.target_non_finite;
+        vs = voxel_down_sample(source, static_cast<float>(s.voxel_size));
+        vt = voxel_down_sample(target, static_cast<float>(s.voxel_size));
       }
+      level.source = s.voxel_size > 0.0 ? &vs.cloud : &source;
+      level.target = s.voxel_size > 0.0 ? &vt.cloud : &target;
+      result = icp_levels({level}, T, lo);
     } catch (const InputError& e) {
-      throw InputError(fmt::format("multi-scale ICP, level {} of {} (voxel {} m): {}", level + 1,
-                                   scales.size(), s.voxel_size, e.what()));
+      throw InputError(fmt::format("multi-scale ICP, {}", e.what()));
     }
-    result.source_non_finite = source_nf;
-    result.target_non_finite = target_nf;
+    if (s.voxel_size > 0.0) {
+      result.source_non_finite = vs.report.non_finite;
+      result.target_non_finite = vt.report.non_finite;
+    }
     total_iterations += result.iterations;
-    levels.push_back({s.voxel_size, s.max_correspondence_distance, result.source_points,
-                      result.target_points, result.iterations, result.converged, result.fitness,
-                      result.inlier_rmse});
-    if (!result.success) {
-      result.reason = fmt::format("level {} of {} (voxel {} m): {}", level + 1, scales.size(),
-                                  s.voxel_size, result.reason);
-      break;
+    for (IcpLevelReport r : result.levels) {
+      r.voxel_size = s.voxel_size;
+      reports.push_back(r);
     }
+    if (!result.success) break;
     T = result.T_target_source;
   }
   result.iterations = total_iterations;
-  result.levels = std::move(levels);
+  result.levels = std::move(reports);
   return result;
 }
 

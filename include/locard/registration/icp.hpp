@@ -204,6 +204,29 @@ class IcpTarget {
 IcpResult icp(const PointCloud& source, const IcpTarget& target,
               const Isometry3d& init_T_target_source, const IcpOptions& options);
 
+// One level of a coarse-to-fine schedule over clouds the caller has ready: the source, the
+// target and, when the caller prepared it for this level's method, the target's IcpTarget (used
+// instead of preparing the cloud again: the same result, without the cost).
+struct IcpLevel {
+  std::string name;  // prefixes a failure's reason: "level 2 of 3", "gate 0.01 m"
+  const PointCloud* source = nullptr;
+  const PointCloud* target = nullptr;
+  const IcpTarget* prepared = nullptr;  // optional
+  IcpMethod method = IcpMethod::PointToPlane;
+  double max_correspondence_distance = 0.05;
+  int max_iterations = 30;
+  bool skip_if_small = false;  // fewer than options.min_points on a side: fail, do not run
+};
+
+// The one coarse-to-fine loop (icp_multiscale, the alignment's refinement of a view, the scan
+// alignment's gates): each level runs icp() with the level's method, gate and iteration limit
+// over `options`, from the previous level's estimate; the first level that fails stops it, its
+// reason prefixed with the level's name ("<name>: too few points" for a small level with
+// skip_if_small). iterations are summed over the levels run, `levels` has one report each.
+// An InputError of a level is re-thrown with the level's name in front.
+IcpResult icp_levels(const std::vector<IcpLevel>& levels, const Isometry3d& init_T_target_source,
+                     const IcpOptions& options);
+
 // Coarse to fine over `scales` (each level starts from the previous level's estimate). The
 // fields of `options` other than the correspondence distance and iteration limit apply to
 // every level; normals are re-estimated per level (radius 2 x voxel_size, as Open3D's
