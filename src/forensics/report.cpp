@@ -4,12 +4,15 @@
 
 #include <locard/core/atomic_file.hpp>
 #include <locard/core/error.hpp>
+#include <locard/core/raycaster.hpp>
 #include <locard/forensics/case_folder.hpp>
 #include <locard/forensics/case_metadata.hpp>
+#include <locard/forensics/evidence_markers.hpp>
 #include <locard/forensics/integrity.hpp>
+#include <locard/forensics/revisions.hpp>
+#include <locard/forensics/trajectory_analysis.hpp>
 #include <locard/io/image_io.hpp>
 #include <locard/io/trajectory_io.hpp>
-#include <locard/core/raycaster.hpp>
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -80,6 +83,22 @@ std::string revised_name(const json& object, const char* key) {
   return out + " <span class=\"note\">(was " + was + ")</span>";
 }
 
+// The same for the typed objects (markers, trajectory analyses).
+std::string revision_class(const Revisions& r) { return r.withdrawn() ? " class=\"withdrawn\"" : ""; }
+
+std::string revised_name(const std::string& name, const Revisions& r) {
+  std::string out = esc(name);
+  if (r.previous_names.empty()) return out;
+  std::string was;
+  for (const std::string& n : r.previous_names) was += (was.empty() ? "" : ", ") + esc(n);
+  return out + " <span class=\"note\">(was " + was + ")</span>";
+}
+
+std::string revision_status(const Revisions& r) {
+  if (!r.withdrawn()) return "current";
+  return "withdrawn " + esc(r.withdrawn_at) + ": " + esc(r.withdrawn_reason);
+}
+
 std::string revision_status(const json& object) {
   const auto it = object.find("withdrawn");
   if (it == object.end() || !it->is_object()) return "current";
@@ -104,6 +123,9 @@ std::string base64(const std::vector<std::uint8_t>& data) {
 
 std::string mm(double m, int digits = 1) { return fmt::format("{:.{}f}", 1000.0 * m, digits); }
 std::string cm(double m, int digits = 1) { return fmt::format("{:.{}f}", 100.0 * m, digits); }
+std::string v3(const Eigen::Vector3d& v, int digits = 3) {
+  return fmt::format("({:.{}f}, {:.{}f}, {:.{}f})", v.x(), digits, v.y(), digits, v.z(), digits);
+}
 std::string v3(const json& j, int digits = 3) {
   if (!j.is_array() || j.size() != 3) return "";
   return fmt::format("({:.{}f}, {:.{}f}, {:.{}f})", j[0].get<double>(), digits,
@@ -418,8 +440,8 @@ struct ReportInputs {
   fs::path root;
   json case_json;
   Trajectory trajectory;
-  json markers;   // evidence/markers.json, or null
-  json analyses;  // trajectories/analyses.json, or null
+  MarkerSet markers;                         // evidence/markers.json (empty: none)
+  std::vector<TrajectoryAnalysis> analyses;  // trajectories/analyses.json (empty: none)
   CaseMetadata metadata;
 };
 
@@ -430,10 +452,7 @@ Vector3d report_up(const ReportInputs& r) {
   // roughly level).
   Vector3d up = Vector3d::Zero();
   const std::string frame_text = r.case_json.value("world_frame", "");
-  const Vector3d frame_z =
-      !r.markers.is_null() && r.markers.contains("frame") && r.markers["frame"].contains("z_axis")
-          ? json_vec3(r.markers["frame"]["z_axis"], "evidence/markers.json: frame.z_axis")
-          : Vector3d::UnitZ();
+  const Vector3d frame_z = r.markers.frame.axes.col(2);
   const bool levelled = r.case_json.contains("level")
                             ? r.case_json["level"].value("levelled", false)
                             // cases written before the typed field: their world_frame sentence
@@ -575,8 +594,6 @@ std::string trajectory_plot_section(const ReportInputs& r, const TopView& top,
                                     const std::string& top_uri) {
   std::string h;
   const Trajectory& trajectory = r.trajectory;
-  const json& analyses = r.analyses;
-  const json& markers = r.markers;
   // Trajectory top view: camera path, markers and bullet lines over the top view.
   h += "<h2 id=\"trajectory\">Camera trajectory, evidence and bullet lines (top view)</h2>\n";
   std::string svg = plan_svg_begin("trajectory-plot", top, top_uri, 0.55);
@@ -594,27 +611,23 @@ std::string trajectory_plot_section(const ReportInputs& r, const TopView& top,
                        "stroke=\"#1f5fbf\" stroke-width=\"0.8\"/>",
                        px.x(), px.y(), tip.x(), tip.y());
   }
-  if (!analyses.is_null())
-    for (const json& a : analyses["analyses"]) {
-      if (a.contains("withdrawn")) continue;  // listed below as withdrawn, not drawn
-      const json& b = a["backward"];
-      const json& f = a["forward"];
-      const Vector3d p0 = b.value("hit", false) ? json_vec3(b["point"], "report") : json_vec3(a["points"].front(), "report");
-      const Vector3d p1 = f.value("hit", false) ? json_vec3(f["point"], "report") : json_vec3(a["points"].back(), "report");
-      const auto q0 = top.to_pixel(p0), q1 = top.to_pixel(p1);
-      svg += fmt::format("<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" "
-                         "stroke=\"#c00\" stroke-width=\"2\" stroke-dasharray=\"6 3\"/>",
-                         q0.x(), q0.y(), q1.x(), q1.y());
-    }
-  if (!markers.is_null())
-    for (const json& m : markers["markers"]) {
-      if (m.contains("withdrawn")) continue;
-      const auto px = top.to_pixel(json_vec3(m["world"], "report"));
-      svg += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"7\" fill=\"#ffd400\" "
-                         "stroke=\"#000\"/><text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"9\" "
-                         "text-anchor=\"middle\">{}</text>",
-                         px.x(), px.y(), px.x(), px.y() + 3, m.value("number", 0));
-    }
+  for (const TrajectoryAnalysis& a : r.analyses) {
+    if (a.revisions.withdrawn() || a.points.empty()) continue;  // withdrawn: listed below
+    const Vector3d p0 = a.backward.hit ? a.backward.point : a.points.front();
+    const Vector3d p1 = a.forward.hit ? a.forward.point : a.points.back();
+    const auto q0 = top.to_pixel(p0), q1 = top.to_pixel(p1);
+    svg += fmt::format("<line x1=\"{:.1f}\" y1=\"{:.1f}\" x2=\"{:.1f}\" y2=\"{:.1f}\" "
+                       "stroke=\"#c00\" stroke-width=\"2\" stroke-dasharray=\"6 3\"/>",
+                       q0.x(), q0.y(), q1.x(), q1.y());
+  }
+  for (const EvidenceMarker& m : r.markers.markers) {
+    if (m.revisions.withdrawn()) continue;
+    const auto px = top.to_pixel(m.world);
+    svg += fmt::format("<circle cx=\"{:.1f}\" cy=\"{:.1f}\" r=\"7\" fill=\"#ffd400\" "
+                       "stroke=\"#000\"/><text x=\"{:.1f}\" y=\"{:.1f}\" font-size=\"9\" "
+                       "text-anchor=\"middle\">{}</text>",
+                       px.x(), px.y(), px.x(), px.y() + 3, m.number);
+  }
   svg += map_furniture_svg(top) + "</svg>";
   h += "<figure>" + svg +
        "<figcaption>Blue: camera positions and viewing directions; yellow: evidence markers; "
@@ -675,59 +688,46 @@ std::string table_one_section(const fs::path& root) {
   return h;
 }
 
-std::string evidence_section(const json& markers) {
-  std::string h;
-  // Evidence
-  h += "<h2 id=\"evidence\">Evidence markers</h2>\n";
-  if (markers.is_null() || markers["markers"].empty()) {
-    h += "<p class=\"note\">No evidence markers yet (<code>locard marker add</code>).</p>\n";
-  } else {
-    h += "<p class=\"note\">Frame: " + esc(markers["frame"].value("description", "")) +
-         ", origin " + v3(markers["frame"]["origin"]) + "</p>";
-    h += "<table id=\"evidence-table\"><tr><th>#</th><th>label</th><th>x</th><th>y</th><th>z</th>"
-         "<th>U (mm)</th><th>note</th><th>status</th></tr>";
-    for (const json& m : markers["markers"]) {
-      const json& l = m["local"];
-      h += fmt::format("<tr{}><td>{}</td><td>{}</td><td class=n>{:.3f}</td><td class=n>{:.3f}</td>"
-                       "<td class=n>{:.3f}</td><td class=n>{}</td><td>{}</td><td>{}</td></tr>",
-                       revision_class(m), m.value("number", 0), revised_name(m, "label"),
-                       l[0].get<double>(), l[1].get<double>(), l[2].get<double>(),
-                       mm(m.value("expanded_uncertainty_m", 0.0)), esc(m.value("note", "")),
-                       revision_status(m));
-    }
-    h += "</table>\n";
+std::string evidence_section(const MarkerSet& set) {
+  std::string h = "<h2 id=\"evidence\">Evidence markers</h2>\n";
+  if (set.markers.empty())
+    return h + "<p class=\"note\">No evidence markers yet (<code>locard marker add</code>).</p>\n";
+  h += "<p class=\"note\">Frame: " + esc(set.frame.description) + ", origin " +
+       v3(set.frame.origin) + "</p>";
+  h += "<table id=\"evidence-table\"><tr><th>#</th><th>label</th><th>x</th><th>y</th><th>z</th>"
+       "<th>U (mm)</th><th>note</th><th>status</th></tr>";
+  for (const EvidenceMarker& m : set.markers) {
+    const Vector3d l = set.frame.to_local(m.world);
+    h += fmt::format("<tr{}><td>{}</td><td>{}</td><td class=n>{:.3f}</td><td class=n>{:.3f}</td>"
+                     "<td class=n>{:.3f}</td><td class=n>{}</td><td>{}</td><td>{}</td></tr>",
+                     revision_class(m.revisions), m.number, revised_name(m.label, m.revisions),
+                     l.x(), l.y(), l.z(), mm(m.expanded_uncertainty_m), esc(m.note),
+                     revision_status(m.revisions));
   }
-
-  return h;
+  return h + "</table>\n";
 }
 
-std::string trajectories_section(const json& analyses) {
-  std::string h;
-  // Trajectories
-  h += "<h2 id=\"trajectories\">Bullet trajectory analyses</h2>\n";
-  if (analyses.is_null() || analyses["analyses"].empty()) {
-    h += "<p class=\"note\">No trajectory analyses yet (<code>locard trajectory</code>).</p>\n";
-  } else {
-    h += "<table id=\"trajectory-table\"><tr><th>name</th><th>points</th><th>horizontal "
-         "angle</th><th>vertical angle</th><th>cone half-angle (k=2)</th><th>forward hit</th>"
-         "<th>backward hit</th><th>status</th></tr>";
-    auto hit = [](const json& j) {
-      if (!j.value("hit", false)) return std::string("none");
-      return fmt::format("{} at {:.3f} m, cone radius {} mm", v3(j["point"]),
-                         j.value("distance_m", 0.0), mm(j.value("cone_radius_m", 0.0)));
-    };
-    for (const json& a : analyses["analyses"])
-      h += fmt::format("<tr{}><td>{}</td><td class=n>{}</td><td class=n>{:.2f}&deg;</td><td "
-                       "class=n>{:.2f}&deg;</td><td class=n>{:.2f}&deg;</td><td>{}</td><td>{}</td>"
-                       "<td>{}</td></tr>",
-                       revision_class(a), revised_name(a, "name"), a["points"].size(),
-                       a.value("horizontal_angle_deg", 0.0), a.value("vertical_angle_deg", 0.0),
-                       a.value("cone_half_angle_deg", 0.0), hit(a["forward"]), hit(a["backward"]),
-                       revision_status(a));
-    h += "</table>\n";
-  }
-
-  return h;
+std::string trajectories_section(const std::vector<TrajectoryAnalysis>& analyses) {
+  std::string h = "<h2 id=\"trajectories\">Bullet trajectory analyses</h2>\n";
+  if (analyses.empty())
+    return h + "<p class=\"note\">No trajectory analyses yet (<code>locard trajectory</code>).</p>\n";
+  h += "<table id=\"trajectory-table\"><tr><th>name</th><th>points</th><th>horizontal "
+       "angle</th><th>vertical angle</th><th>cone half-angle (k=2)</th><th>forward hit</th>"
+       "<th>backward hit</th><th>status</th></tr>";
+  const auto hit = [](const SurfaceHit& j) {
+    if (!j.hit) return std::string("none");
+    return fmt::format("{} at {:.3f} m, cone radius {} mm", v3(j.point), j.distance_m,
+                       mm(j.cone_radius_m));
+  };
+  for (const TrajectoryAnalysis& a : analyses)
+    h += fmt::format("<tr{}><td>{}</td><td class=n>{}</td><td class=n>{:.2f}&deg;</td><td "
+                     "class=n>{:.2f}&deg;</td><td class=n>{:.2f}&deg;</td><td>{}</td><td>{}</td>"
+                     "<td>{}</td></tr>",
+                     revision_class(a.revisions), revised_name(a.name, a.revisions),
+                     a.points.size(), a.horizontal_angle_deg, a.vertical_angle_deg,
+                     a.cone_half_angle_deg, hit(a.forward), hit(a.backward),
+                     revision_status(a.revisions));
+  return h + "</table>\n";
 }
 
 std::string simulations_section(const fs::path& root) {
@@ -907,9 +907,9 @@ ReportResult write_case_report(const CaseFolder& folder, const ReportOptions& o)
   const TriangleMesh mesh = folder.load_mesh();
   const Raycaster rc(mesh);
   r.trajectory = read_tum_trajectory(root / "alignment" / "trajectory.txt");
-  r.markers = read_json_or_null(root / "evidence" / "markers.json");
+  r.markers = read_markers(root / "evidence" / "markers.json");
   r.metadata = read_case_metadata(folder);
-  r.analyses = read_json_or_null(root / "trajectories" / "analyses.json");
+  r.analyses = read_trajectory_analyses(root / "trajectories" / "analyses.json");
   const Vector3d up = report_up(r);
 
   std::string h = report_opening(r, o);
