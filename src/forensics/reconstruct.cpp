@@ -289,13 +289,11 @@ static json view_confidence_json(const AlignmentResult& result) {
 
 namespace {
 
-// What the checks before anything is written found: the run's typed choices and its input.
+// What the checks before anything is written found: the input, its format and sequence.
 struct ReconstructPlan {
   fs::path input;
   fs::path input_root;  // absolute, normalised
   DatasetFormat format = DatasetFormat::Unknown;
-  AlignmentMode mode = AlignmentMode::Cumulative;
-  IcpMethod odometry_icp = IcpMethod::PointToPlane;
   RgbdSequence sequence;
   fs::path reference;
   std::vector<ReferenceMeasurement> refs;
@@ -329,10 +327,8 @@ ReconstructPlan plan_reconstruct(const fs::path& input, const ReconstructParamet
                                          "(a Stanford .conf, a folder of two or more PLY/PCD "
                                          "scans, an E57 file of two or more scans), found {}",
                                          to_string(plan.format)));
-  plan.mode = P.mode;
   if (P.odometry_icp == IcpMethod::PointToPoint)
     throw InputError("odometry_icp must be colored or point-to-plane, got 'point-to-point'");
-  plan.odometry_icp = P.odometry_icp;
   plan.sequence = open_rgbd_sequence(input);
   if (plan.sequence.frames.size() < 2)
     throw_input_error(input, "the sequence needs at least two frames");
@@ -463,8 +459,8 @@ AlignmentResult align_stage(const StageContext& c, AlignmentOptions& ao) {
   const RgbdSequence& sequence = c.plan.sequence;
   ReconstructSummary& summary = c.summary;
   ao = default_alignment_options(sequence.traits);  // ring sizes and the rest
-  ao.mode = c.plan.mode;
-  ao.odometry_method = c.plan.odometry_icp;
+  ao.mode = P.mode;
+  ao.odometry_method = P.odometry_icp;
   ao.voxel_size = P.align_voxel_m;
   ao.stride = P.stride;
   ao.min_depth_m = P.min_depth_m;

@@ -32,7 +32,6 @@ using nlohmann::json;
 struct ScanPlan {
   RangeScanSet set;
   fs::path input_root;  // the folder holding the input (every file in it is hashed)
-  ScanPoseSource poses = ScanPoseSource::Input;
   fs::path reference;
   std::vector<ReferenceMeasurement> refs;
   std::vector<PointCloud> scans;  // each in its own frame
@@ -51,7 +50,6 @@ struct ScanCase {
 ScanPlan plan_scans(const RangeScanSet& set, const ReconstructParameters& P) {
   ScanPlan plan;
   plan.set = set;
-  plan.poses = P.scan_poses;
   if (!(P.scan_voxel_m >= 0.0)) throw InputError("scan_voxel_m must be 0 (automatic) or positive");
   if (set.scans.size() < 2)
     throw_input_error(set.input, fmt::format("expected at least two scans, found {}", set.scans.size()));
@@ -185,7 +183,7 @@ void write_alignment_files(CaseFolder& folder, const ScanCase& c, const std::str
 
 std::string describe_world_frame(const ScanCase& c) {
   const ScanAlignmentResult& r = c.alignment;
-  const bool input_frame = c.plan.poses == ScanPoseSource::Input && c.plan.set.all_posed();
+  const bool input_frame = c.P.scan_poses == ScanPoseSource::Input && c.plan.set.all_posed();
   if (input_frame)
     return fmt::format("the input's frame: every scan pose re-estimated, scan {} ({}) kept at the "
                        "pose the input gives it (the gauge); not levelled",
@@ -199,7 +197,7 @@ void align(CaseFolder& folder, ScanCase& c, ReconstructSummary& summary) {
   ScanAlignmentOptions o = scan_alignment_options_for_spacing(c.spacing);
   o.seed = c.P.seed;
   std::vector<std::optional<Isometry3d>> initial;
-  if (c.plan.poses == ScanPoseSource::Input && c.plan.set.any_posed())
+  if (c.P.scan_poses == ScanPoseSource::Input && c.plan.set.any_posed())
     for (const RangeScanEntry& s : c.plan.set.scans) initial.push_back(s.T_world_scan);
   c.hooks.begin("align", 0);
   c.alignment = align_scans(c.plan.scans, o, initial);

@@ -1,6 +1,7 @@
 #include <locard/forensics/report.hpp>
 
 #include "forensics/json_util.hpp"
+#include "forensics/revisions_json.hpp"
 
 #include <locard/core/atomic_file.hpp>
 #include <locard/core/error.hpp>
@@ -69,21 +70,6 @@ std::string esc(const std::string& s) {
 
 // A recorded object's revisions (revisions.hpp) in the report: a withdrawn row is struck
 // through and grey but kept, an earlier name is shown beside the current one.
-std::string revision_class(const json& object) {
-  return object.contains("withdrawn") ? " class=\"withdrawn\"" : "";
-}
-
-std::string revised_name(const json& object, const char* key) {
-  std::string out = esc(object.value(key, ""));
-  const auto it = object.find("previous_names");
-  if (it == object.end() || !it->is_array() || it->empty()) return out;
-  std::string was;
-  for (const json& n : *it)
-    if (n.is_string()) was += (was.empty() ? "" : ", ") + esc(n.get<std::string>());
-  return out + " <span class=\"note\">(was " + was + ")</span>";
-}
-
-// The same for the typed objects (markers, trajectory analyses).
 std::string revision_class(const Revisions& r) { return r.withdrawn() ? " class=\"withdrawn\"" : ""; }
 
 std::string revised_name(const std::string& name, const Revisions& r) {
@@ -97,12 +83,6 @@ std::string revised_name(const std::string& name, const Revisions& r) {
 std::string revision_status(const Revisions& r) {
   if (!r.withdrawn()) return "current";
   return "withdrawn " + esc(r.withdrawn_at) + ": " + esc(r.withdrawn_reason);
-}
-
-std::string revision_status(const json& object) {
-  const auto it = object.find("withdrawn");
-  if (it == object.end() || !it->is_object()) return "current";
-  return "withdrawn " + esc(it->value("at", "")) + ": " + esc(it->value("reason", ""));
 }
 
 std::string base64(const std::vector<std::uint8_t>& data) {
@@ -674,13 +654,15 @@ std::string table_one_section(const fs::path& root) {
     for (const json& m : adhoc["measurements"]) {
       const std::string kind = m.value("kind", "");
       const bool angle = kind == "plane_angle";
+      const Revisions revisions = get_revisions(m, "measurements/measurements.json");
       h += fmt::format("<tr{}><td>{}</td><td>{}</td><td class=n>{}</td><td class=n>{}</td><td>{}</td></tr>",
-                       revision_class(m), revised_name(m, "name"), esc(kind),
+                       revision_class(revisions), revised_name(m.value("name", ""), revisions),
+                       esc(kind),
                        angle ? fmt::format("{:.2f}&deg;", m.value("angle_deg", 0.0))
                              : fmt::format("{:.4f} m", m.value("distance_m", 0.0)),
                        angle ? fmt::format("{:.2f}&deg;", m.value("expanded_uncertainty_deg", 0.0))
                              : fmt::format("{} mm", mm(m.value("expanded_uncertainty_m", 0.0))),
-                       revision_status(m));
+                       revision_status(revisions));
     }
     h += "</table>\n";
   }

@@ -238,16 +238,15 @@ void write_trajectory_analyses(const std::filesystem::path& json_path,
   f.commit();
 }
 
+std::string default_trajectory_name(std::size_t stored) { return fmt::format("T{}", stored + 1); }
+
 RecordedTrajectory record_trajectory_analysis(CaseFolder& folder, TrajectoryAnalysis analysis,
                                               const std::string& parameters_json,
                                               double duration_s) {
   const std::filesystem::path relative = "trajectories/analyses.json";
   CaseChange change(folder, {relative, "trajectories/analyses.csv"});
-  std::vector<TrajectoryAnalysis> all =
-      std::filesystem::is_regular_file(folder.path(relative))
-          ? read_trajectory_analyses(folder.path(relative))
-          : std::vector<TrajectoryAnalysis>{};
-  if (analysis.name.empty()) analysis.name = fmt::format("T{}", all.size() + 1);
+  std::vector<TrajectoryAnalysis> all = read_trajectory_analyses(folder.path(relative));
+  if (analysis.name.empty()) analysis.name = default_trajectory_name(all.size());
   for (const TrajectoryAnalysis& existing : all)
     if (existing.name == analysis.name)
       throw InputError(fmt::format("a trajectory named '{}' exists already in this case",

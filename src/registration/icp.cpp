@@ -691,6 +691,13 @@ IcpResult icp_levels(const std::vector<IcpLevel>& levels, const Isometry3d& init
     lo.method = level.method;
     lo.max_correspondence_distance = level.max_correspondence_distance;
     lo.convergence.max_iterations = level.max_iterations;
+    if (level.normal_radius > 0.0) {
+      lo.normal_radius = level.normal_radius;
+      lo.normal_max_neighbors = level.normal_max_neighbors;
+    } else {
+      lo.normal_radius = options.normal_radius;
+      lo.normal_max_neighbors = options.normal_max_neighbors;
+    }
     if (level.skip_if_small && (level.source->size() < options.min_points ||
                                 level.target->size() < options.min_points)) {
       result = IcpResult{};
@@ -730,50 +737,43 @@ IcpResult icp_multiscale(const PointCloud& source, const PointCloud& target,
     for (const auto& p : cloud->positions) finite += p.allFinite();
     check_count(which, finite, cloud->size() - finite, std::max<std::size_t>(options.min_points, 3));
   }
-  // Each level's clouds (voxel grid) and normal radius; levels run one after the other, so a
-  // level whose grid is not needed is never built (the loop stops at the first failure).
+  // Each level's clouds (voxel grid, sized up front so the pointers stay valid) and normals.
+  std::vector<VoxelGridResult> grids(2 * scales.size());
+  std::vector<IcpLevel> levels(scales.size());
   IcpResult result;
-  Isometry3d T = init_T_target_source;
-  std::vector<IcpLevelReport> reports;
-  int total_iterations = 0;
-  for (std::size_t k = 0; k < scales.size(); ++k) {
-    const IcpScale& s = scales[k];
-    IcpOptions lo = options;
-    if (s.voxel_size > 0.0 && options.normal_radius <= 0.0) {
-      lo.normal_radius = 2.0 * s.voxel_size;
-      lo.normal_max_neighbors = 30;
-    }
-    IcpLevel level;
-    level.name = fmt::format("level {} of {} (voxel {} m)", k + 1, scales.size(), s.voxel_size);
-    level.method = options.method;
-    level.max_correspondence_distance = s.max_correspondence_distance;
-    level.max_iterations = s.max_iterations;
-    VoxelGridResult vs, vt;
-    try {
-      if (s.voxel_size > 0.0) {
-        vs = voxel_down_sample(source, static_cast<float>(s.voxel_size));
-        vt = voxel_down_sample(target, static_cast<float>(s.voxel_size));
+  try {
+    for (std::size_t k = 0; k < scales.size(); ++k) {
+      const IcpScale& s = scales[k];
+      IcpLevel& level = levels[k];
+      level.name = fmt::format("level {} of {} (voxel {} m)", k + 1, scales.size(), s.voxel_size);
+      level.method = options.method;
+      level.max_correspondence_distance = s.max_correspondence_distance;
+      level.max_iterations = s.max_iterations;
+      level.source = &source;
+      level.target = &target;
+      if (s.voxel_size <= 0.0) continue;
+      grids[2 * k] = voxel_down_sample(source, static_cast<float>(s.voxel_size));
+      grids[2 * k + 1] = voxel_down_sample(target, static_cast<float>(s.voxel_size));
+      level.source = &grids[2 * k].cloud;
+      level.target = &grids[2 * k + 1].cloud;
+      if (options.normal_radius <= 0.0) {
+        level.normal_radius = 2.0 * s.voxel_size;
+        level.normal_max_neighbors = 30;
       }
-      level.source = s.voxel_size > 0.0 ? &vs.cloud : &source;
-      level.target = s.voxel_size > 0.0 ? &vt.cloud : &target;
-      result = icp_levels({level}, T, lo);
-    } catch (const InputError& e) {
-      throw InputError(fmt::format("multi-scale ICP, {}", e.what()));
     }
-    if (s.voxel_size > 0.0) {
-      result.source_non_finite = vs.report.non_finite;
-      result.target_non_finite = vt.report.non_finite;
-    }
-    total_iterations += result.iterations;
-    for (IcpLevelReport r : result.levels) {
-      r.voxel_size = s.voxel_size;
-      reports.push_back(r);
-    }
-    if (!result.success) break;
-    T = result.T_target_source;
+    result = icp_levels(levels, init_T_target_source, options);
+  } catch (const InputError& e) {
+    throw InputError(fmt::format("multi-scale ICP, {}", e.what()));
   }
-  result.iterations = total_iterations;
-  result.levels = std::move(reports);
+  // The reports carry the grid's voxel, the result the non-finite points of the level that ran
+  // last (a voxel grid drops them before ICP sees them).
+  for (std::size_t k = 0; k < result.levels.size(); ++k)
+    result.levels[k].voxel_size = scales[k].voxel_size;
+  const std::size_t last = result.levels.size() - 1;
+  if (scales[last].voxel_size > 0.0) {
+    result.source_non_finite = grids[2 * last].report.non_finite;
+    result.target_non_finite = grids[2 * last + 1].report.non_finite;
+  }
   return result;
 }
 

@@ -379,6 +379,22 @@ void find_block_vertices(const SortedBlocks& sorted, std::size_t r, float voxel,
       }
 }
 
+// Corner c (bit 0: +x, 1: +y, 2: +z) of the cube whose origin voxel is (x, y, z): its local
+// voxel coordinates in `p`, wrapped into the neighbour block it falls in, and which neighbour
+// (bit a set: the +a one; 0: this block).
+int cube_corner(int x, int y, int z, int c, int p[3]) {
+  p[0] = x + (c & 1);
+  p[1] = y + ((c >> 1) & 1);
+  p[2] = z + ((c >> 2) & 1);
+  int which = 0;
+  for (int a = 0; a < 3; ++a)
+    if (p[a] == kSide) {
+      p[a] = 0;
+      which |= 1 << a;
+    }
+  return which;
+}
+
 // --- pass B for the block of rank r: triangles of every cube whose origin voxel lies in it
 void find_block_triangles(const SortedBlocks& sorted, std::size_t r,
                           const std::vector<BlockVertices>& vertices,
@@ -396,14 +412,8 @@ void find_block_triangles(const SortedBlocks& sorted, std::size_t r,
         int cube = 0;
         bool complete = true;
         for (int c = 0; c < 8 && complete; ++c) {
-          int p[3] = {x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1)};
-          int which = 0;
-          for (int a = 0; a < 3; ++a)
-            if (p[a] == kSide) {
-              p[a] = 0;
-              which |= 1 << a;
-            }
-          const Block* blk = nblock[which];
+          int p[3];
+          const Block* blk = nblock[cube_corner(x, y, z, c, p)];
           if (!blk) {
             complete = false;
             break;
@@ -422,14 +432,8 @@ void find_block_triangles(const SortedBlocks& sorted, std::size_t r,
             const int e = mc.triangles[t][j];
             if (edge_vertex[e] == kNone) {
               const int lo = detail::edge_low_corner(e);
-              int p[3] = {x + (lo & 1), y + ((lo >> 1) & 1), z + ((lo >> 2) & 1)};
-              int which = 0;
-              for (int a = 0; a < 3; ++a)
-                if (p[a] == kSide) {
-                  p[a] = 0;
-                  which |= 1 << a;
-                }
-              const std::uint32_t owner = nb[which];
+              int p[3];
+              const std::uint32_t owner = nb[cube_corner(x, y, z, lo, p)];
               const BlockVertices& bv = vertices[owner];
               const std::uint32_t id = static_cast<std::uint32_t>(
                   local_index(p[0], p[1], p[2]) * 3 + detail::edge_axis(e));

@@ -434,10 +434,9 @@ ApiResponse CaseApi::trajectory(std::string_view body) {
 
   forensics::TrajectoryAnalysis analysis = forensics::analyse_trajectory(&impl_->model(), input);
   if (!save) {  // a preview: named as it would be stored
-    const fs::path stored = impl_->root / "trajectories/analyses.json";
     if (analysis.name.empty())
-      analysis.name = fmt::format(
-          "T{}", (is_regular(stored) ? forensics::read_trajectory_analyses(stored).size() : 0) + 1);
+      analysis.name = forensics::default_trajectory_name(
+          forensics::read_trajectory_analyses(impl_->root / "trajectories/analyses.json").size());
     return json_response(to_json(analysis), 200);
   }
   forensics::CaseFolder folder = impl_->folder(forensics::CaseAccess::Change);

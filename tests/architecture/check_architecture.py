@@ -203,8 +203,9 @@ def function_lengths(path):
         line_at[i] = line
         if c == '\n':
             line += 1
+    functions_open = 0  # function kinds on the stack
     for i, c in enumerate(text):
-        inside_function = any(kind[0] == 'function' for kind in stack)
+        inside_function = functions_open > 0
         if c == '{':
             if inside_function:
                 stack.append(('other',))
@@ -220,6 +221,7 @@ def function_lengths(path):
                     name = m.group(1).split()[-1] if m and m.group(1).split() else '?'
                     start = head_start + (len(head) - len(head.lstrip()))
                     stack.append(('function', line_at[start], name))
+                    functions_open += 1
                 else:
                     stack.append(('other',))
             head_start = i + 1
@@ -227,6 +229,7 @@ def function_lengths(path):
             if stack:
                 kind = stack.pop()
                 if kind[0] == 'function':
+                    functions_open -= 1
                     results.append((kind[2], kind[1], line_at[i] - kind[1] + 1))
             head_start = i + 1
         elif c == ';' and not inside_function:

@@ -79,6 +79,9 @@ std::string trajectory_analyses_csv(const std::vector<TrajectoryAnalysis>& analy
 void write_trajectory_analyses(const std::filesystem::path& json_path,
                                const std::vector<TrajectoryAnalysis>& analyses);
 
+// The name an unnamed analysis gets in a case that stores `stored` of them: "T<stored + 1>".
+std::string default_trajectory_name(std::size_t stored);
+
 // How a trajectory analysis enters a case, from the CLI and the viewer alike: appended to
 // trajectories/analyses.json (+ .csv) as one logged step "trajectory" with `parameters_json`,
 // under the case's lock (read again there: another writer may have added one). An empty name

@@ -216,6 +216,9 @@ struct IcpLevel {
   double max_correspondence_distance = 0.05;
   int max_iterations = 30;
   bool skip_if_small = false;  // fewer than options.min_points on a side: fail, do not run
+  // > 0: this level's normal estimation instead of options' (multi-scale: 2 voxels, 30).
+  double normal_radius = 0.0;
+  int normal_max_neighbors = 0;
 };
 
 // The one coarse-to-fine loop (icp_multiscale, the alignment's refinement of a view, the scan
