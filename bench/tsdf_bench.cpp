@@ -1,14 +1,17 @@
 // TSDF fusion of the 7-Scenes subset (374 frames at their ground-truth poses) + coloured
-// marching cubes, against Open3D's ScalableTSDFVolume (integrate + extract_triangle_mesh) on
-// the same frames, poses, voxel size, truncation and depth range, in the same run. Images are
-// decoded outside the clock in both; the time is integration + extraction.
-// Peak memory: ru_maxrss of a child process that does one full fusion (ours, forked before any
-// thread starts) and of the Python child (Open3D), each with its resident size before the
-// volume was created.
+// marching cubes, against Open3D's ScalableTSDFVolume (integrate + extract_triangle_mesh),
+// through the peer harness (bench/harness): the same frames, poses, voxel size, truncation and
+// depth range, warm-up, repeats and threads on both sides. Each side decodes every image
+// before the clock (prepare); a timed pass is a fresh volume, every integration, and the
+// extraction.
+// Peak memory above the decoded frames: ru_maxrss of a child process that does one pass (ours,
+// forked before any thread starts) and of the Python peer, each less its resident size before
+// the volume was created.
 //
-//   build/release/bench/tsdf_bench [--benchmark_repetitions=N]
+//   build/release/bench/tsdf_bench [--repeats=N]
 //   LOCARD_TSDF_STEP=4 build/release/bench/tsdf_bench   # every 4th frame, for a quick look
 #include "bench_peers.hpp"
+#include "peer_harness.hpp"
 
 #include <locard/io/rgbd_sequence.hpp>
 #include <locard/surface/tsdf_volume.hpp>
@@ -23,61 +26,56 @@
 
 #include <chrono>
 #include <cstdlib>
-#include <limits>
 
 namespace {
 
-using locard::bench::kSevenScenes;
+namespace bench = locard::bench;
+using bench::kSevenScenes;
 constexpr double kVoxel = 4.0 / 512.0;  // Open3D's examples: 4 m / 512 voxels
 constexpr double kTruncation = 0.04;
 constexpr double kMaxDepth = 4.0;
 
 std::size_t frame_step() {
   const char* s = std::getenv("LOCARD_TSDF_STEP");
-  return s ? std::max(1, std::atoi(s)) : 1;
+  return s ? static_cast<std::size_t>(std::max(1, std::atoi(s))) : 1;
 }
 
-struct RunResult {
-  double integrate_s = 0.0;
-  double extract_s = 0.0;
-  std::size_t frames = 0, vertices = 0, triangles = 0, blocks = 0, volume_bytes = 0;
+struct DecodedFrames {
+  std::vector<locard::RgbdFrame> frames;
+  std::vector<locard::Isometry3d> poses;
 };
 
-RunResult fuse_once(const locard::RgbdSequence& seq) {
+DecodedFrames decode_frames() {
+  const locard::RgbdSequence seq = locard::open_rgbd_sequence(kSevenScenes);
+  DecodedFrames d;
+  for (std::size_t i = 0; i < seq.frames.size(); i += frame_step()) {
+    d.frames.push_back(seq.load_frame(i));
+    d.poses.push_back(*seq.frames[i].T_world_camera);
+  }
+  return d;
+}
+
+const DecodedFrames& decoded() {
+  static const DecodedFrames d = decode_frames();
+  return d;
+}
+
+nlohmann::json fuse(const DecodedFrames& d) {
   using clock = std::chrono::steady_clock;
   locard::TsdfVolume volume(
       {.voxel_size = kVoxel, .truncation = kTruncation, .max_depth_m = kMaxDepth});
-  RunResult r;
-  for (std::size_t i = 0; i < seq.frames.size(); i += frame_step()) {
-    const locard::RgbdFrame frame = seq.load_frame(i);
-    const auto start = clock::now();
-    volume.integrate(frame, *seq.frames[i].T_world_camera);
-    r.integrate_s += std::chrono::duration<double>(clock::now() - start).count();
-    ++r.frames;
-  }
   const auto start = clock::now();
+  for (std::size_t i = 0; i < d.frames.size(); ++i) volume.integrate(d.frames[i], d.poses[i]);
+  const auto integrated = clock::now();
   const locard::TriangleMesh mesh = volume.extract_mesh();
-  r.extract_s = std::chrono::duration<double>(clock::now() - start).count();
-  r.vertices = mesh.vertex_count();
-  r.triangles = mesh.triangle_count();
-  r.blocks = volume.stats().blocks;
-  r.volume_bytes = volume.stats().memory_bytes;
-  return r;
+  const auto end = clock::now();
+  return {{"frames", d.frames.size()},
+          {"integrate_seconds", std::chrono::duration<double>(integrated - start).count()},
+          {"extract_seconds", std::chrono::duration<double>(end - integrated).count()},
+          {"vertices", mesh.vertex_count()},
+          {"triangles", mesh.triangle_count()},
+          {"volume_mib", volume.stats().memory_bytes / 1048576.0}};
 }
-
-RunResult g_best{std::numeric_limits<double>::infinity()};
-
-void BM_TsdfFusion7Scenes(benchmark::State& state) {
-  const locard::RgbdSequence seq = locard::open_rgbd_sequence(kSevenScenes);
-  for (auto _ : state) {
-    const RunResult r = fuse_once(seq);
-    state.SetIterationTime(r.integrate_s + r.extract_s);
-    if (r.integrate_s + r.extract_s < g_best.integrate_s + g_best.extract_s) g_best = r;
-  }
-  state.counters["frames"] = static_cast<double>(g_best.frames);
-  state.counters["triangles"] = static_cast<double>(g_best.triangles);
-}
-BENCHMARK(BM_TsdfFusion7Scenes)->Unit(benchmark::kMillisecond)->UseManualTime()->Iterations(1);
 
 long current_rss_kib() {
   FILE* f = std::fopen("/proc/self/statm", "r");
@@ -89,16 +87,16 @@ long current_rss_kib() {
   return resident * (::sysconf(_SC_PAGESIZE) / 1024);
 }
 
-// One fusion in a forked child: its ru_maxrss is our peak memory. Returns {peak, before} KiB.
+// One pass in a forked child (before any thread exists): {peak, before the volume} KiB.
 std::pair<long, long> measure_peak_memory() {
   int fds[2];
   if (::pipe(fds) != 0) return {0, 0};
   const pid_t pid = ::fork();
   if (pid == 0) {
     ::close(fds[0]);
-    const locard::RgbdSequence seq = locard::open_rgbd_sequence(kSevenScenes);
+    const DecodedFrames d = decode_frames();
     const long before = current_rss_kib();
-    (void)fuse_once(seq);
+    (void)fuse(d);
     if (::write(fds[1], &before, sizeof(before)) != sizeof(before)) ::_exit(1);
     ::_exit(0);
   }
@@ -113,47 +111,62 @@ std::pair<long, long> measure_peak_memory() {
   return {usage.ru_maxrss, before};
 }
 
+std::pair<long, long> g_locard_memory_kib;
+
+bench::Workload tsdf_workload() {
+  const locard::RgbdSequence seq = locard::open_rgbd_sequence(kSevenScenes);
+  bench::Workload w;
+  w.kernel = "tsdf_fusion";
+  nlohmann::json frames = nlohmann::json::array();
+  for (std::size_t i = 0; i < seq.frames.size(); i += frame_step()) {
+    const auto& e = seq.frames[i];
+    nlohmann::json pose = nlohmann::json::array();
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) pose.push_back(e.T_world_camera->matrix()(r, c));
+    frames.push_back({{"color", e.color_path.string()}, {"depth", e.depth_path.string()},
+                      {"T_world_camera", pose}});
+  }
+  w.inputs = {{"frames", frames},
+              {"intrinsics",
+               {{"width", seq.intrinsics.width}, {"height", seq.intrinsics.height},
+                {"fx", seq.intrinsics.fx}, {"fy", seq.intrinsics.fy},
+                {"cx", seq.intrinsics.cx}, {"cy", seq.intrinsics.cy}}},
+              {"depth_scale", seq.depth_scale}};
+  w.parameters = {{"voxel", kVoxel}, {"truncation", kTruncation}, {"max_depth_m", kMaxDepth}};
+  (void)decoded();  // Locard's decoding, outside the clock as the peer's
+  return w;
+}
+
+void report(const bench::Comparison& c) {
+  for (const auto& side : c.sides()) {
+    const bench::SideRun* run = c.run_of(side->name());
+    if (!run) continue;
+    const nlohmann::json& o = run->output;
+    fmt::print("  {:<8} {} frames: integrate {:.3f} s, extract {:.3f} s; {} vertices, {} "
+               "triangles\n",
+               run->side, o.value("frames", 0), o.value("integrate_seconds", 0.0),
+               o.value("extract_seconds", 0.0), o.value("vertices", 0), o.value("triangles", 0));
+  }
+  const auto [peak, before] = g_locard_memory_kib;
+  fmt::print("  peak memory above the decoded frames: locard {:.0f} MiB (forked pass)", (peak - before) / 1024.0);
+  if (const bench::SideRun* o3d = c.run_of("open3d"))
+    fmt::print(", open3d {:.0f} MiB (its process, over its passes)",
+               (o3d->output.value("max_rss_kib", 0.0) - o3d->output.value("rss_before_kib", 0.0)) / 1024.0);
+  fmt::print("\n");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
-  const auto [peak_kib, before_kib] = measure_peak_memory();  // before any thread exists
-  benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  benchmark::RunSpecifiedBenchmarks();
-  benchmark::Shutdown();
-
-  const double ours = g_best.integrate_s + g_best.extract_s;
-  fmt::print("\nTSDF fusion, 7-Scenes subset: {} frames, voxel {:.4f} m, truncation {} m, depth "
-             "<= {} m, ground-truth poses\n",
-             g_best.frames, kVoxel, kTruncation, kMaxDepth);
-  fmt::print("  locard : {:7.3f} s (integrate {:.3f} s, extract {:.3f} s), {} vertices, {} "
-             "triangles, {} blocks of 8^3 ({:.0f} MiB)\n",
-             ours, g_best.integrate_s, g_best.extract_s, g_best.vertices, g_best.triangles,
-             g_best.blocks, g_best.volume_bytes / 1048576.0);
-  fmt::print("           peak RSS {:.0f} MiB (resident before fusion {:.0f} MiB)\n",
-             peak_kib / 1024.0, before_kib / 1024.0);
-  const std::string command =
-      fmt::format("/usr/bin/python3 {} {} {} {} {} {}",
-                  locard::bench::quoted(std::filesystem::path(__FILE__).parent_path() / "peers" /
-                                        "open3d_tsdf.py"),
-                  locard::bench::quoted(kSevenScenes), kVoxel, kTruncation, kMaxDepth,
-                  frame_step());
-  const nlohmann::json peer = locard::bench::run_peer(command);
-  if (peer.is_discarded()) {
-    fmt::print("  open3d : not measured (/usr/bin/python3 with python3-open3d is needed)\n");
-    return 0;
-  }
-  const double theirs = peer["seconds"].get<double>();
-  fmt::print("  {:7}: {:7.3f} s (integrate {:.3f} s, extract {:.3f} s), {} vertices, {} "
-             "triangles\n",
-             "open3d", theirs, peer["integrate_seconds"].get<double>(),
-             peer["extract_seconds"].get<double>(), peer["vertices"].get<std::size_t>(),
-             peer["triangles"].get<std::size_t>());
-  fmt::print("           peak RSS {:.0f} MiB (resident before the volume {:.0f} MiB)\n",
-             peer["max_rss_kib"].get<double>() / 1024.0,
-             peer["rss_before_kib"].get<double>() / 1024.0);
-  fmt::print("  ratio  : {:.2f}x Open3D ({}), peak memory above baseline {:.0f} vs {:.0f} MiB\n",
-             theirs / ours, peer["peer"].get<std::string>(), (peak_kib - before_kib) / 1024.0,
-             (peer["max_rss_kib"].get<double>() - peer["rss_before_kib"].get<double>()) / 1024.0);
-  return 0;
+  g_locard_memory_kib = measure_peak_memory();  // before any thread exists
+  bench::add_comparison("tsdf_7scenes",
+                        fmt::format("TSDF fusion + marching cubes, 7-Scenes subset at the "
+                                    "reference poses (voxel {:.4f} m, truncation {} m, depth <= {} m)",
+                                    kVoxel, kTruncation, kMaxDepth),
+                        {.warmup = 1, .repeats = 3}, tsdf_workload)
+      .side(bench::in_process_side("locard",
+                                   [](const bench::Workload&) { return fuse(decoded()); }))
+      .side(bench::open3d_side("open3d_tsdf.py"))
+      .report(report);
+  return bench::run_main(argc, argv);
 }

@@ -94,6 +94,8 @@ class Comparison {
   const std::string& name() const { return name_; }
   int declared_repeats() const { return counts_.repeats; }
   const Workload& workload();       // prepared on first use (inputs written then)
+  // The workload the sides ran (for report callbacks); null before any side ran.
+  const Workload* prepared() const { return workload_ ? &*workload_ : nullptr; }
   const SideRun* run_of(const std::string& side) const;  // null if not run (filtered out)
   const std::vector<std::unique_ptr<Side>>& sides() const { return sides_; }
 

@@ -3,20 +3,25 @@
 
 Run with Debian's interpreter (/usr/bin/python3), which has python3-open3d.
 
+Tests (src/features/fpfh_test.cpp, iss_keypoints_test.cpp):
   open3d_features.py fpfh  CLOUD RADIUS MAX_NN OUT
       CLOUD is a PLY with normals (or an .xyzn text file). Computes Open3D's FPFH with the
       cloud's own normals and writes the descriptors to OUT as raw little-endian float32,
       33 per point, in point order.
   open3d_features.py iss   CLOUD SALIENT_RADIUS NON_MAX_RADIUS GAMMA21 GAMMA32 MIN_NEIGHBORS OUT
       Open3D's ISS keypoints; writes their positions to OUT as raw float32 x y z triples.
-  open3d_features.py bench CLOUD NORMAL_RADIUS NORMAL_MAX_NN FPFH_RADIUS FPFH_MAX_NN REPEATS
-      Times normals (KDTreeSearchParamHybrid, oriented towards the origin like Locard's
-      default) followed by FPFH, best of REPEATS by time.perf_counter (wall) and
-      time.process_time (CPU, all threads), and prints JSON.
+
+Benchmark (protocol: peer_protocol.py; open3d_features.py TASK.json):
+  normals       inputs.cloud (PLY, positions only; read untimed). Timed: a fresh cloud from
+                those positions, estimate_normals (KDTreeSearchParamHybrid(normal_radius,
+                normal_max_nn)), orient_normals_towards_camera_location(viewpoint).
+  normals_fpfh  the same, then compute_fpfh_feature (KDTreeSearchParamHybrid(fpfh_radius,
+                fpfh_max_nn)) of every point.
+  Output: points, descriptors (normals_fpfh), and the normals ("normals", x y z flat) and
+  descriptors ("fpfh", 33 values flat) of points 0, sample_every, 2 * sample_every, ...
 """
 import json
 import sys
-import time
 
 import numpy as np
 import open3d as o3d
@@ -46,43 +51,56 @@ def iss(path, salient_radius, non_max_radius, gamma21, gamma32, min_neighbors, o
     print(json.dumps({"keypoints": len(keypoints.points)}))
 
 
-def bench(path, normal_radius, normal_max_nn, fpfh_radius, fpfh_max_nn, repeats):
-    source = read(path)
-    points = np.asarray(source.points)
-    best_normals = best_fpfh = best_total = best_cpu = float("inf")
-    for _ in range(repeats):
-        cloud = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(points))
-        cpu_start = time.process_time()
-        start = time.perf_counter()
-        cloud.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(
-            radius=normal_radius, max_nn=normal_max_nn))
-        cloud.orient_normals_towards_camera_location(np.zeros(3))
-        middle = time.perf_counter()
-        feature = o3d.pipelines.registration.compute_fpfh_feature(
-            cloud, o3d.geometry.KDTreeSearchParamHybrid(radius=fpfh_radius, max_nn=fpfh_max_nn))
-        end = time.perf_counter()
-        best_cpu = min(best_cpu, time.process_time() - cpu_start)
-        assert feature.data.shape[1] == len(points)
-        best_normals = min(best_normals, middle - start)
-        best_fpfh = min(best_fpfh, end - middle)
-        best_total = min(best_total, end - start)
-    print(json.dumps({"peer": "open3d " + o3d.__version__, "points": len(points),
-                      "normals_seconds": best_normals, "fpfh_seconds": best_fpfh,
-                      "seconds": best_total, "cpu_seconds": best_cpu}))
+# --- benchmark kernels -------------------------------------------------------------------------
+
+def prepare(task):
+    cloud = read(task["inputs"]["cloud"])
+    if cloud.has_normals():
+        sys.exit("open3d_features.py: the benchmark cloud must come without normals")
+    return cloud.points  # Vector3dVector; every pass starts from a copy
+
+
+def normals_of(points, p):
+    cloud = o3d.geometry.PointCloud(points)
+    cloud.estimate_normals(o3d.geometry.KDTreeSearchParamHybrid(
+        radius=p["normal_radius"], max_nn=p["normal_max_nn"]))
+    cloud.orient_normals_towards_camera_location(np.asarray(p["viewpoint"], dtype=float))
+    return cloud
+
+
+def sampled_normals(cloud, p):
+    return np.asarray(cloud.normals)[::p["sample_every"]].ravel().tolist()
+
+
+def normals(points, task):
+    p = task["parameters"]
+    cloud = normals_of(points, p)
+    return {"points": len(cloud.points), "normals": sampled_normals(cloud, p)}
+
+
+def normals_fpfh(points, task):
+    p = task["parameters"]
+    cloud = normals_of(points, p)
+    feature = o3d.pipelines.registration.compute_fpfh_feature(
+        cloud, o3d.geometry.KDTreeSearchParamHybrid(radius=p["fpfh_radius"],
+                                                    max_nn=p["fpfh_max_nn"]))
+    data = np.asarray(feature.data)  # 33 x points
+    return {"points": len(cloud.points), "descriptors": int(data.shape[1]),
+            "normals": sampled_normals(cloud, p),
+            "fpfh": data[:, ::p["sample_every"]].T.ravel().tolist()}
 
 
 def main():
-    mode = sys.argv[1]
+    mode = sys.argv[1] if len(sys.argv) > 1 else ""
     if mode == "fpfh":
         fpfh(sys.argv[2], float(sys.argv[3]), int(sys.argv[4]), sys.argv[5])
     elif mode == "iss":
         iss(sys.argv[2], float(sys.argv[3]), float(sys.argv[4]), float(sys.argv[5]),
             float(sys.argv[6]), int(sys.argv[7]), sys.argv[8])
-    elif mode == "bench":
-        bench(sys.argv[2], float(sys.argv[3]), int(sys.argv[4]), float(sys.argv[5]),
-              int(sys.argv[6]), int(sys.argv[7]))
     else:
-        sys.exit(f"unknown mode {mode}")
+        from peer_protocol import serve
+        serve("open3d " + o3d.__version__,
+              {"normals": (prepare, normals), "normals_fpfh": (prepare, normals_fpfh)})
 
 
 if __name__ == "__main__":

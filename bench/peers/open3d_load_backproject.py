@@ -1,45 +1,53 @@
 #!/usr/bin/python3
-"""Open3D peer for bench/load_backproject_bench: reads every 7-Scenes frame that has images and
-back-projects it with colour, the way an Open3D user would, and prints JSON timings.
+"""Open3D peer for bench/load_backproject_bench (protocol: peer_protocol.py).
 
+  load_backproject  inputs.frames: [{"color", "depth"}] image files; nothing is read untimed.
+                    Timed: for every frame, read_image (colour, depth),
+                    RGBDImage.create_from_color_and_depth (parameters.depth_scale,
+                    depth_trunc = parameters.depth_max, colour kept) and
+                    PointCloud.create_from_rgbd_image with the parameters' pinhole intrinsics,
+                    frame by frame as an Open3D user would (these calls hold the GIL, so a
+                    thread pool gains nothing). Output: point count per frame and, for every
+                    parameters.checked_every-th frame, the sums of x, y, z and of r, g, b (0-255).
+Open3D drops depth 0 and depth beyond depth_trunc; parameters.depth_min (0) cuts nothing more.
 Run with Debian's interpreter (/usr/bin/python3), which has python3-open3d.
 """
-import glob
-import json
-import os
-import sys
-import time
-
+import numpy as np
 import open3d as o3d
 
+from peer_protocol import serve
 
-def main():
-    folder, repeats = sys.argv[1], int(sys.argv[2]) if len(sys.argv) > 2 else 3
-    depth_files = sorted(glob.glob(os.path.join(folder, "frame-*.depth.png")))
-    pairs = []
-    for d in depth_files:
-        c = d.replace(".depth.png", ".color.jpg")
-        if not os.path.exists(c):
-            c = d.replace(".depth.png", ".color.png")
-        if os.path.exists(c):
-            pairs.append((c, d))
-    intrinsic = o3d.camera.PinholeCameraIntrinsic(640, 480, 585.0, 585.0, 320.0, 240.0)
-    best, points = float("inf"), 0
-    for _ in range(repeats):
-        start = time.perf_counter()
-        points = 0
-        for c, d in pairs:
-            color = o3d.io.read_image(c)
-            depth = o3d.io.read_image(d)
-            rgbd = o3d.geometry.RGBDImage.create_from_color_and_depth(
-                color, depth, depth_scale=1000.0, depth_trunc=10.0,
-                convert_rgb_to_intensity=False)
-            cloud = o3d.geometry.PointCloud.create_from_rgbd_image(rgbd, intrinsic)
-            points += len(cloud.points)
-        best = min(best, time.perf_counter() - start)
-    print(json.dumps({"peer": "open3d " + o3d.__version__, "frames": len(pairs),
-                      "seconds": best, "fps": len(pairs) / best, "points": points}))
+
+def prepare(task):
+    p = task["parameters"]
+    if p["depth_min"] > 0:
+        raise SystemExit("open3d_load_backproject.py: depth_min > 0 is not supported")
+    intrinsic = o3d.camera.PinholeCameraIntrinsic(p["width"], p["height"], p["fx"], p["fy"],
+                                                  p["cx"], p["cy"])
+    frames = [(f["color"], f["depth"]) for f in task["inputs"]["frames"]]
+    return intrinsic, frames
+
+
+def load_backproject(state, task):
+    intrinsic, frames = state
+    p = task["parameters"]
+    every = p["checked_every"]
+    points, sums = [], []
+    for i, (color_file, depth_file) in enumerate(frames):
+        color = o3d.io.read_image(color_file)
+        depth = o3d.io.read_image(depth_file)
+        rgbd = o3d.geometry.RGBDImage.create_from_color_and_depth(
+            color, depth, depth_scale=p["depth_scale"], depth_trunc=p["depth_max"],
+            convert_rgb_to_intensity=False)
+        cloud = o3d.geometry.PointCloud.create_from_rgbd_image(rgbd, intrinsic)
+        points.append(len(cloud.points))
+        if i % every == 0:
+            xyz = np.asarray(cloud.points).sum(axis=0)
+            rgb = 255.0 * np.asarray(cloud.colors).sum(axis=0)
+            sums.append([float(v) for v in xyz] + [float(v) for v in rgb])
+    return {"frames": len(frames), "points": sum(points), "frame_points": points,
+            "checked_sums": sums}
 
 
 if __name__ == "__main__":
-    main()
+    serve("open3d " + o3d.__version__, {"load_backproject": (prepare, load_backproject)})
