@@ -50,14 +50,14 @@ int run_reconstruct(const ReconstructCli& o, const GlobalOptions& global) {
   fx::ReconstructParameters p = fx::ReconstructParameters::defaults_for(traits);
   if (!o.config.empty()) p = fx::ReconstructParameters::from_json_file(o.config, p);
   if (!o.reference.empty()) p.reference = o.reference;
-  if (o.voxel) p.align_voxel_m = *o.voxel;
-  if (o.mesh_voxel) p.mesh_voxel_m = *o.mesh_voxel;
-  if (o.frames) p.max_frames = *o.frames;
-  if (o.seed) p.seed = *o.seed;
+  if (o.voxel) p.alignment.voxel_size = *o.voxel;
+  if (o.mesh_voxel) p.fusion.voxel_size = *o.mesh_voxel;
+  if (o.frames) p.alignment.max_frames = *o.frames;
+  if (o.seed) p.alignment.seed = *o.seed;
   if (o.mode) {
     const auto mode = parse_alignment_mode(*o.mode);
     if (!mode) throw InputError(fmt::format("--mode must be cumulative or odometry, got '{}'", *o.mode));
-    p.mode = *mode;
+    p.alignment.mode = *mode;
   }
   // --scan-poses and --up are checked against their names by CLI11.
   if (o.scan_poses) p.scan_poses = fx::parse_scan_pose_source(*o.scan_poses).value();

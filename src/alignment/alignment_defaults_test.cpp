@@ -59,9 +59,9 @@ TEST(AlignmentDefaults, EveryTraitCombination) {
 
         // reconstruct's parameters take the same values, and case.json names them.
         const auto p = forensics::ReconstructParameters::defaults_for(t);
-        EXPECT_EQ(p.mode, o.mode);
-        EXPECT_EQ(p.odometry_icp, o.odometry_method);
-        EXPECT_DOUBLE_EQ(p.max_depth_m, o.max_depth_m);
+        EXPECT_EQ(p.alignment.mode, o.mode);
+        EXPECT_EQ(p.alignment.odometry_method, o.odometry_method);
+        EXPECT_DOUBLE_EQ(p.alignment.max_depth_m, o.max_depth_m);
         const auto j = nlohmann::json::parse(p.to_json());
         EXPECT_EQ(parse_alignment_mode(j.at("mode").get<std::string>()), o.mode);
         EXPECT_EQ(parse_icp_method(j.at("odometry_icp").get<std::string>()), o.odometry_method);

@@ -47,9 +47,9 @@ std::vector<E57View> rgbd_e57_views(const RgbdSequence& sequence,
   tbb::parallel_for(std::size_t{0}, posed.size(), [&](std::size_t k) {
     const std::size_t i = posed[k];
     DepthToPointsOptions o;
-    o.min_depth_m = P.min_depth_m;
-    o.max_depth_m = P.max_depth_m;
-    o.stride = std::max(1, P.stride);
+    o.min_depth_m = P.alignment.min_depth_m;
+    o.max_depth_m = P.alignment.max_depth_m;
+    o.stride = std::max(1, P.alignment.stride);
     const PointCloud points = depth_to_points(sequence.load_frame(i), o);
     views[k].name = fmt::format("frame {}", sequence.frames[i].frame_index);
     views[k].cloud = P.cloud_voxel_m > 0.0

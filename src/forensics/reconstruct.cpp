@@ -92,23 +92,23 @@ void write_text(const fs::path& path, const std::string& text) {
 // The parameters a file may set, with their JSON types checked on reading.
 template <typename F>
 void for_each_field(ReconstructParameters& p, F&& f) {
-  f("mode", p.mode);
-  f("odometry_icp", p.odometry_icp);
-  f("align_voxel_m", p.align_voxel_m);
-  f("stride", p.stride);
-  f("min_depth_m", p.min_depth_m);
-  f("max_depth_m", p.max_depth_m);
-  f("first_frame", p.first_frame);
-  f("max_frames", p.max_frames);
-  f("loop_closure", p.loop_closure);
-  f("loop_max_angle_deg", p.loop_max_angle_deg);
-  f("loop_max_distance_m", p.loop_max_distance_m);
-  f("loop_min_fitness", p.loop_min_fitness);
-  f("seed", p.seed);
+  f("mode", p.alignment.mode);
+  f("odometry_icp", p.alignment.odometry_method);
+  f("align_voxel_m", p.alignment.voxel_size);
+  f("stride", p.alignment.stride);
+  f("min_depth_m", p.alignment.min_depth_m);
+  f("max_depth_m", p.alignment.max_depth_m);
+  f("first_frame", p.alignment.first_frame);
+  f("max_frames", p.alignment.max_frames);
+  f("loop_closure", p.alignment.loop_closure);
+  f("loop_max_angle_deg", p.alignment.loop_max_angle_deg);
+  f("loop_max_distance_m", p.alignment.loop_max_distance_m);
+  f("loop_min_fitness", p.alignment.loop_min_fitness);
+  f("seed", p.alignment.seed);
   f("scan_poses", p.scan_poses);
   f("scan_voxel_m", p.scan_voxel_m);
-  f("mesh_voxel_m", p.mesh_voxel_m);
-  f("truncation_m", p.truncation_m);
+  f("mesh_voxel_m", p.fusion.voxel_size);
+  f("truncation_m", p.fusion.truncation);
   f("min_component", p.min_component);
   f("formats", p.formats);
   f("up", p.up);
@@ -266,11 +266,8 @@ ReconstructParameters ReconstructParameters::from_json_file(const fs::path& path
 }
 
 ReconstructParameters ReconstructParameters::defaults_for(const SequenceTraits& traits) {
-  const AlignmentOptions a = default_alignment_options(traits);
   ReconstructParameters p;
-  p.mode = a.mode;
-  p.odometry_icp = a.odometry_method;
-  p.max_depth_m = a.max_depth_m;
+  p.alignment = default_alignment_options(traits);
   return p;
 }
 
@@ -327,7 +324,7 @@ ReconstructPlan plan_reconstruct(const fs::path& input, const ReconstructParamet
                                          "(a Stanford .conf, a folder of two or more PLY/PCD "
                                          "scans, an E57 file of two or more scans), found {}",
                                          to_string(plan.format)));
-  if (P.odometry_icp == IcpMethod::PointToPoint)
+  if (P.alignment.odometry_method == IcpMethod::PointToPoint)
     throw InputError("odometry_icp must be colored or point-to-plane, got 'point-to-point'");
   plan.sequence = open_rgbd_sequence(input);
   if (plan.sequence.frames.size() < 2)
@@ -355,8 +352,8 @@ void run_coverage_stage(CaseFolder& folder, const RgbdSequence& sequence,
     return;
   }
   FloorCoverageOptions options;
-  options.min_depth_m = P.min_depth_m;
-  options.max_depth_m = P.max_depth_m;
+  options.min_depth_m = P.alignment.min_depth_m;
+  options.max_depth_m = P.alignment.max_depth_m;
   const FloorCoverage coverage = compute_floor_coverage(sequence, poses, *floor_z, options);
   write_text(folder.path("coverage/floor_coverage.json"), floor_coverage_json(coverage));
   summary.floor_seen_share = coverage.seen_share();
@@ -397,7 +394,7 @@ json ingest_stage(const StageContext& c, const SensorNoiseModel& noise) {
   json input_files = json::array();
   for (const FileRecord& r : inputs)
     input_files.push_back({{"path", r.path}, {"bytes", r.bytes}, {"sha256", r.sha256}});
-  json seeds = {{"ransac", P.seed}};
+  json seeds = {{"ransac", P.alignment.seed}};
   if (fs::is_regular_file(input_root / "simulation.json")) {
     std::ifstream sim_in(input_root / "simulation.json");
     try {
@@ -458,24 +455,16 @@ AlignmentResult align_stage(const StageContext& c, AlignmentOptions& ao) {
   const ReconstructParameters& P = c.P;
   const RgbdSequence& sequence = c.plan.sequence;
   ReconstructSummary& summary = c.summary;
-  ao = default_alignment_options(sequence.traits);  // ring sizes and the rest
-  ao.mode = P.mode;
-  ao.odometry_method = P.odometry_icp;
-  ao.voxel_size = P.align_voxel_m;
-  ao.stride = P.stride;
-  ao.min_depth_m = P.min_depth_m;
-  ao.max_depth_m = P.max_depth_m;
-  ao.first_frame = P.first_frame;
-  ao.max_frames = P.max_frames;
-  ao.loop_closure = P.loop_closure;
-  ao.loop_max_angle_deg = P.loop_max_angle_deg;
-  ao.loop_max_distance_m = P.loop_max_distance_m;
-  ao.loop_min_fitness = P.loop_min_fitness;
-  ao.seed = P.seed;
-  ao.pose_graph.max_correspondence_distance = 1.5 * P.align_voxel_m;
-  const std::size_t first = std::min(P.first_frame, sequence.frames.size());
-  const std::size_t total =
-      P.max_frames ? std::min(P.max_frames, sequence.frames.size() - first) : sequence.frames.size() - first;
+  ao = P.alignment;
+  // What the data is, whatever the parameters say: a turn's rings, and whether its colour
+  // may pull (registered to depth).
+  const AlignmentOptions from_data = default_alignment_options(sequence.traits);
+  ao.ring_sizes = from_data.ring_sizes;
+  ao.refinement_color = from_data.refinement_color;
+  ao.pose_graph.max_correspondence_distance = 1.5 * P.alignment.voxel_size;
+  const std::size_t first = std::min(P.alignment.first_frame, sequence.frames.size());
+  const std::size_t left = sequence.frames.size() - first;
+  const std::size_t total = P.alignment.max_frames ? std::min(P.alignment.max_frames, left) : left;
   ao.progress = c.begin("align", total);
   AlignmentResult result = align_sequence(sequence, ao);
   c.end("align");
@@ -682,10 +671,10 @@ void record_alignment(const StageContext& c, json& case_json, const AlignmentRes
   {
     LogStep s;
     s.step = "align";
-    s.parameters_json = json{{"mode", to_string(P.mode)}, {"odometry_icp", to_string(P.odometry_icp)},
-                             {"voxel_m", P.align_voxel_m}, {"stride", P.stride},
-                             {"depth_range_m", {P.min_depth_m, P.max_depth_m}},
-                             {"loop_closure", P.loop_closure}, {"seed", P.seed},
+    s.parameters_json = json{{"mode", to_string(P.alignment.mode)}, {"odometry_icp", to_string(P.alignment.odometry_method)},
+                             {"voxel_m", P.alignment.voxel_size}, {"stride", P.alignment.stride},
+                             {"depth_range_m", {P.alignment.min_depth_m, P.alignment.max_depth_m}},
+                             {"loop_closure", P.alignment.loop_closure}, {"seed", P.alignment.seed},
                              {"world_frame", frame.description}}.dump();
     s.duration_s = seconds_since(t0);
     s.outputs = {"alignment/trajectory.txt", "alignment/pose_graph.json",
@@ -706,10 +695,10 @@ std::vector<std::optional<Isometry3d>> mesh_stage(const StageContext& c, const A
     if (f.trusted() && f.piece == 0)
       poses[f.sequence_index] = *f.T_world_camera_final;
   FusionOptions fo;
-  fo.tsdf.voxel_size = P.mesh_voxel_m;
-  fo.tsdf.truncation = P.truncation_m > 0 ? P.truncation_m : 4.0 * P.mesh_voxel_m;
-  fo.tsdf.max_depth_m = P.max_depth_m;
-  fo.tsdf.min_depth_m = P.min_depth_m;
+  fo.tsdf = P.fusion;
+  if (fo.tsdf.truncation <= 0) fo.tsdf.truncation = 4.0 * fo.tsdf.voxel_size;
+  fo.tsdf.max_depth_m = P.alignment.max_depth_m;
+  fo.tsdf.min_depth_m = P.alignment.min_depth_m;
   fo.cloud_voxel = P.cloud_voxel_m;
   fo.progress = c.begin("mesh", summary.registered);
   FusionResult fused = fuse_sequence(c.plan.sequence, poses, fo);
@@ -737,7 +726,7 @@ std::vector<std::optional<Isometry3d>> mesh_stage(const StageContext& c, const A
   {
     LogStep s;
     s.step = "mesh";
-    s.parameters_json = json{{"method", "tsdf"}, {"voxel_m", P.mesh_voxel_m},
+    s.parameters_json = json{{"method", "tsdf"}, {"voxel_m", P.fusion.voxel_size},
                              {"truncation_m", fo.tsdf.truncation},
                              {"min_component", P.min_component}, {"formats", mesh_formats_text(P.formats)},
                              {"cloud_voxel_m", P.cloud_voxel_m}}.dump();

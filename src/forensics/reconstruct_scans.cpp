@@ -93,7 +93,7 @@ void ingest(CaseFolder& folder, ScanCase& c) {
                   {"depth_sensor", "unknown"}, {"viewpoint", std::string(viewpoint_text(set.viewpoint))},
                   {"point_spacing_m", c.spacing}}},
       {"parameters", parameters_json(c.P)},
-      {"seeds", {{"ransac", c.P.seed}}},
+      {"seeds", {{"ransac", c.P.alignment.seed}}},
       {"units", {{"length", "m"}, {"angle", "deg"}}}};
   write_json(folder.path("case.json"), c.case_json);
   LogStep s;
@@ -195,7 +195,7 @@ std::string describe_world_frame(const ScanCase& c) {
 void align(CaseFolder& folder, ScanCase& c, ReconstructSummary& summary) {
   const auto t0 = Clock::now();
   ScanAlignmentOptions o = scan_alignment_options_for_spacing(c.spacing);
-  o.seed = c.P.seed;
+  o.seed = c.P.alignment.seed;
   std::vector<std::optional<Isometry3d>> initial;
   if (c.P.scan_poses == ScanPoseSource::Input && c.plan.set.any_posed())
     for (const RangeScanEntry& s : c.plan.set.scans) initial.push_back(s.T_world_scan);

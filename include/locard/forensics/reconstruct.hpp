@@ -54,39 +54,22 @@ std::optional<WorldFrameChoice> parse_world_frame_choice(std::string_view name);
 std::string mesh_formats_text(const std::vector<MeshFormat>& formats);
 std::vector<MeshFormat> parse_mesh_formats(std::string_view text);
 
-// The tuning defaults the parameters start from: AlignmentOptions{}'s and TsdfOptions{}'s, the
-// one place each is written.
-inline const AlignmentOptions& alignment_option_defaults() {
-  static const AlignmentOptions defaults;
-  return defaults;
-}
-
 struct ReconstructParameters {
-  // Alignment (see AlignmentOptions), with AlignmentOptions{}'s values; defaults_for() sets
-  // mode, odometry_icp and max_depth_m from the sequence's traits.
-  AlignmentMode mode = AlignmentMode::Cumulative;
-  // Odometry mode's last ICP level: coloured where colour is registered to depth,
-  // point-to-plane where it is not (7-Scenes' Kinect v1). Never point-to-point.
-  IcpMethod odometry_icp = IcpMethod::Colored;
-  double align_voxel_m = alignment_option_defaults().voxel_size;
-  int stride = alignment_option_defaults().stride;
-  double min_depth_m = alignment_option_defaults().min_depth_m;
-  double max_depth_m = alignment_option_defaults().max_depth_m;
-  std::size_t first_frame = 0;
-  std::size_t max_frames = 0;  // 0: all
-  bool loop_closure = alignment_option_defaults().loop_closure;
-  double loop_max_angle_deg = alignment_option_defaults().loop_max_angle_deg;
-  double loop_max_distance_m = alignment_option_defaults().loop_max_distance_m;
-  double loop_min_fitness = alignment_option_defaults().loop_min_fitness;
-  std::uint64_t seed = 0;
+  // Alignment: the options `locard align` takes (AlignmentOptions{}'s values; defaults_for()
+  // sets the data's: mode, odometry ICP, depth range, ring sizes). Its depth range is the
+  // case's: fusion and coverage use it too. case.json's "parameters" and a --config file
+  // hold these of its fields: mode, odometry_icp (odometry_method; never point-to-point),
+  // align_voxel_m (voxel_size), stride, min/max_depth_m, first_frame, max_frames,
+  // loop_closure, loop_max_angle_deg, loop_max_distance_m, loop_min_fitness, seed.
+  AlignmentOptions alignment;
   // Range scans (a .conf, a folder of scans, an E57 of several; docs/laser-scans.md):
   // Input: start from the poses the input gives (feature registration for scans without
   // one); Global: ignore them, feature registration for every pair.
   ScanPoseSource scan_poses = ScanPoseSource::Input;
   double scan_voxel_m = 0.0;  // surface sampling; 0: twice the scans' median point spacing
-  // Surface
-  double mesh_voxel_m = TsdfOptions{}.voxel_size;
-  double truncation_m = 0.0;  // 0: 4 voxels
+  // Surface: TSDF fusion (TsdfOptions{}'s voxel; recorded as mesh_voxel_m and truncation_m).
+  // A truncation of 0 means 4 voxels; the depth range is the alignment's.
+  TsdfOptions fusion = {.voxel_size = TsdfOptions{}.voxel_size, .truncation = 0.0};
   std::size_t min_component = 500;
   std::vector<MeshFormat> formats = {MeshFormat::Ply, MeshFormat::Glb, MeshFormat::Obj,
                                      MeshFormat::Fbx};  // JSON: "ply,glb,obj,fbx"
@@ -110,8 +93,8 @@ struct ReconstructParameters {
   std::string to_json() const;
   static ReconstructParameters from_json_file(const std::filesystem::path& path,
                                               const ReconstructParameters& defaults);
-  // Defaults for what the data is (alignment_defaults.hpp, docs/sensors.md): mode, odometry
-  // ICP and depth range from default_alignment_options(traits); the rest as above.
+  // Defaults for what the data is (alignment_defaults.hpp, docs/sensors.md): the alignment
+  // options are default_alignment_options(traits); the rest as above.
   static ReconstructParameters defaults_for(const SequenceTraits& traits);
 };
 
