@@ -4,7 +4,7 @@
 // A *workload* is what every side gets: the same input files, the same parameters, the same
 // warm-up and repeat count and the same thread count. A *side* runs the workload: Locard in
 // this process, a peer as a separate program that reads the workload from a task file
-// (bench/harness/peer_protocol.py for Python peers, peer_protocol.hpp for C++ ones). Every side
+// (bench/peers/peer_protocol.py for Python peers, bench/pcl/peer_protocol.hpp for C++ ones). Every side
 // prepares its data outside the clock (reading files), runs `warmup` untimed passes, then
 // `repeats` timed passes, and returns one wall and one CPU time per pass plus the last pass's
 // output (transforms, counts) for the benchmark to score with one evaluator.

@@ -1,226 +1,291 @@
-// PCL peer for bench/registration_bench: the same registrations with PCL 1.13 on the clouds the
-// benchmark wrote (binary little-endian PLY with float x y z nx ny nz, as locard::write_ply
-// writes them; read here directly so that no pcl_io/VTK is needed). Prints one JSON object.
+// PCL peer for bench/registration_bench (protocol: peer_protocol.hpp). Clouds are the binary
+// PLY files the benchmark wrote (float x y z nx ny nz; read by ply_reader.hpp, no pcl_io/VTK);
+// features are raw little-endian float32, 33 per point, in the clouds' point order. Every input
+// is read outside the clock. Outputs: "transforms", row-major 4x4, in the workload's order
+// (pair-major, seed-minor for RANSAC), for the benchmark's one evaluator; RANSAC also returns
+// "hypotheses" (drawn) and "correspondences" (putative, RANSAC's input) per run, ICP
+// "iterations" per pair.
 //
-//   locard_pcl_registration icp PAIRS MAX_DISTANCE MAX_ITERATIONS REPEATS
-//       pcl::IterativeClosestPointWithNormals (point-to-plane, linear least squares) from the
-//       identity; stops as Locard does: rotation step below 1e-3 degrees and translation step
-//       below 1e-5 m, or MAX_ITERATIONS. Total seconds, best of REPEATS.
-//   locard_pcl_registration ransac PAIRS FPFH_RADIUS MAX_DISTANCE SEEDS
-//       pcl::FPFHEstimationOMP with the file's normals (radius search; not timed), then for
-//       every seed pcl::SampleConsensusPrerejective (3 samples, nearest feature, edge-length
-//       similarity 0.9, inlier distance MAX_DISTANCE, 20000 iterations: PCL has no
-//       confidence-based early exit), timed.
-// PAIRS: one "SOURCE.ply TARGET.ply" per line.
+//  ransac_feature_matching  inputs.pairs[]: source, target, source_features, target_features.
+//      Timed, for every pair and every seed of parameters.seeds: reciprocal nearest neighbours
+//      in FPFH space (pcl::registration::CorrespondenceEstimation::
+//      determineReciprocalCorrespondences; parameters.mutual must be true), then RANSAC alone
+//      (below) on them.
+//  ransac_correspondences   inputs.pairs[]: source, target, correspondences (text, one "s t"
+//      per line). Timed, for every pair and seed: RANSAC alone:
+//      pcl::RandomSampleConsensus over pcl::SampleConsensusModelRegistration (3-point Umeyama
+//      hypotheses, inliers = correspondences within parameters.max_correspondence_distance),
+//      at most parameters.max_iterations hypotheses, stopping early at parameters.confidence
+//      (PCL's k = log(1 - p) / log(1 - w^3), the same rule as Locard's and Open3D's), its
+//      sampler seeded with the seed, one thread (PCL's default); then the winner refitted on its
+//      inliers (optimizeModelCoefficients). PCL's registration model has no edge-length
+//      check: it rejects samples whose source points lie closer than its own spread-derived
+//      distance instead.
+//  icp_point_to_plane       inputs.pairs[]: source, target (with normals). Timed, per pair:
+//      pcl::IterativeClosestPointWithNormals (point-to-plane, linear least squares) from the
+//      identity with parameters.max_correspondence_distance and max_iterations; converged when
+//      the step is below rotation_eps_deg and translation_eps_m, or when the correspondences'
+//      MSE changes by less than relative_rmse (PCL's relative criterion is on the MSE).
+//      PCL's ICP is single-threaded.
 
-#include <pcl/features/fpfh_omp.h>
+#include "peer_protocol.hpp"
+#include "ply_reader.hpp"
+
 #include <pcl/point_types.h>
+#include <pcl/registration/correspondence_estimation.h>
 #include <pcl/registration/icp.h>
-#include <pcl/registration/sample_consensus_prerejective.h>
-#include <pcl/search/kdtree.h>
+#include <pcl/sample_consensus/ransac.h>
+#include <pcl/sample_consensus/sac_model_registration.h>
 
-#include <chrono>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
-#include <cstdlib>
-#include <cstring>
 #include <fstream>
-#include <limits>
-#include <sstream>
+#include <memory>
 #include <stdexcept>
 #include <string>
-#include <utility>
 #include <vector>
 
 namespace {
 
-using Cloud = pcl::PointCloud<pcl::PointNormal>;
+using nlohmann::json;
+using PointCloud = pcl::PointCloud<pcl::PointXYZ>;
+using NormalCloud = pcl::PointCloud<pcl::PointNormal>;
+using Features = pcl::PointCloud<pcl::FPFHSignature33>;
 
-double seconds_since(std::chrono::steady_clock::time_point start) {
-  return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-}
-
-int type_size(const std::string& type) {
-  if (type == "float" || type == "float32" || type == "int" || type == "uint" ||
-      type == "int32" || type == "uint32")
-    return 4;
-  if (type == "double" || type == "float64") return 8;
-  if (type == "uchar" || type == "char" || type == "uint8" || type == "int8") return 1;
-  if (type == "short" || type == "ushort" || type == "int16" || type == "uint16") return 2;
-  throw std::runtime_error("unsupported PLY property type " + type);
-}
-
-// Binary little-endian PLY vertices with float x y z and float nx ny nz.
-Cloud::Ptr read_ply(const std::string& path) {
+Features::Ptr read_features(const std::string& path, std::size_t points) {
   std::ifstream in(path, std::ios::binary);
   if (!in) throw std::runtime_error(path + ": cannot open");
-  std::string line;
-  std::size_t count = 0;
-  bool in_vertex = false, binary_le = false;
-  int stride = 0;
-  int offset[6] = {-1, -1, -1, -1, -1, -1};
-  const char* names[6] = {"x", "y", "z", "nx", "ny", "nz"};
-  while (std::getline(in, line)) {
-    std::istringstream words(line);
-    std::string word;
-    words >> word;
-    if (word == "format") {
-      std::string format;
-      words >> format;
-      binary_le = format == "binary_little_endian";
-    } else if (word == "element") {
-      std::string name;
-      words >> name;
-      in_vertex = name == "vertex";
-      if (in_vertex) words >> count;
-    } else if (word == "property" && in_vertex) {
-      std::string type, name;
-      words >> type >> name;
-      for (int k = 0; k < 6; ++k)
-        if (name == names[k] && (type == "float" || type == "float32")) offset[k] = stride;
-      stride += type_size(type);
-    } else if (word == "end_header") {
-      break;
-    }
-  }
-  if (!binary_le) throw std::runtime_error(path + ": only binary_little_endian PLY is read");
-  for (int k = 0; k < 6; ++k)
-    if (offset[k] < 0) throw std::runtime_error(path + ": no float " + names[k]);
-  std::vector<char> data(count * static_cast<std::size_t>(stride));
-  in.read(data.data(), static_cast<std::streamsize>(data.size()));
-  if (!in) throw std::runtime_error(path + ": truncated");
-  Cloud::Ptr cloud(new Cloud);
-  cloud->resize(count);
-  for (std::size_t i = 0; i < count; ++i) {
-    const char* v = data.data() + i * static_cast<std::size_t>(stride);
-    pcl::PointNormal& p = (*cloud)[i];
-    std::memcpy(&p.x, v + offset[0], 4);
-    std::memcpy(&p.y, v + offset[1], 4);
-    std::memcpy(&p.z, v + offset[2], 4);
-    std::memcpy(&p.normal_x, v + offset[3], 4);
-    std::memcpy(&p.normal_y, v + offset[4], 4);
-    std::memcpy(&p.normal_z, v + offset[5], 4);
-  }
-  cloud->width = static_cast<std::uint32_t>(count);
-  cloud->height = 1;
-  cloud->is_dense = true;
-  return cloud;
+  Features::Ptr out(new Features);
+  out->resize(points);
+  for (pcl::FPFHSignature33& f : *out)
+    in.read(reinterpret_cast<char*>(f.histogram), sizeof f.histogram);
+  if (!in)
+    throw std::runtime_error(path + ": fewer than " + std::to_string(points) + " descriptors");
+  locard_pcl::set_dense(*out);
+  return out;
 }
 
-std::vector<std::pair<std::string, std::string>> read_pairs(const char* path) {
+pcl::Correspondences read_correspondences(const std::string& path) {
   std::ifstream in(path);
-  std::vector<std::pair<std::string, std::string>> pairs;
-  std::string s, t;
-  while (in >> s >> t) pairs.emplace_back(s, t);
-  return pairs;
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  pcl::Correspondences out;
+  for (int s, t; in >> s >> t;) out.emplace_back(s, t, 0.f);
+  return out;
 }
 
-std::string run_json(const Eigen::Matrix4f& T, double fitness) {
-  std::string out = "{\"T\": [";
+PointCloud::Ptr positions(const NormalCloud& cloud) {
+  PointCloud::Ptr out(new PointCloud);
+  out->resize(cloud.size());
+  for (std::size_t i = 0; i < cloud.size(); ++i)
+    (*out)[i] = pcl::PointXYZ(cloud[i].x, cloud[i].y, cloud[i].z);
+  locard_pcl::set_dense(*out);
+  return out;
+}
+
+json row_major(const Eigen::Matrix4f& T) {
+  json out = json::array();
   for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) {
-      char buf[64];
-      std::snprintf(buf, sizeof buf, "%s%.9g", r + c ? ", " : "", static_cast<double>(T(r, c)));
-      out += buf;
-    }
-  char buf[64];
-  std::snprintf(buf, sizeof buf, "], \"fitness\": %.9g}", fitness);
-  return out + buf;
+    for (int c = 0; c < 4; ++c) out.push_back(static_cast<double>(T(r, c)));
+  return out;
 }
 
-int icp(const char* list, double max_distance, int max_iterations, int repeats) {
-  std::vector<std::pair<Cloud::Ptr, Cloud::Ptr>> pairs;
-  for (const auto& [s, t] : read_pairs(list)) pairs.emplace_back(read_ply(s), read_ply(t));
-  double best = std::numeric_limits<double>::infinity();
-  std::vector<std::string> runs;
-  for (int r = 0; r < repeats; ++r) {
-    double total = 0.0;
-    runs.clear();
-    for (const auto& [source, target] : pairs) {
-      Cloud aligned;
-      const auto start = std::chrono::steady_clock::now();
-      pcl::IterativeClosestPointWithNormals<pcl::PointNormal, pcl::PointNormal> icp;
-      icp.setInputSource(source);
-      icp.setInputTarget(target);
+// PCL's registration model with its sampler seeded (PCL seeds it with 12345 or the time).
+class SeededRegistrationModel : public pcl::SampleConsensusModelRegistration<pcl::PointXYZ> {
+ public:
+  SeededRegistrationModel(const PointCloud::ConstPtr& source, std::uint32_t seed)
+      : pcl::SampleConsensusModelRegistration<pcl::PointXYZ>(source) {
+    rng_alg_.seed(seed);
+  }
+};
+
+// RandomSampleConsensus that reports how many hypotheses it drew.
+class CountingRansac : public pcl::RandomSampleConsensus<pcl::PointXYZ> {
+ public:
+  using pcl::RandomSampleConsensus<pcl::PointXYZ>::RandomSampleConsensus;
+  int hypotheses() const { return iterations_; }
+};
+
+struct RansacParameters {
+  double max_distance = 0.0;
+  int max_iterations = 0;
+  double confidence = 0.0;
+  std::vector<std::uint32_t> seeds;
+
+  explicit RansacParameters(const json& task) {
+    const json& p = task.at("parameters");
+    max_distance = p.at("max_correspondence_distance").get<double>();
+    max_iterations = p.at("max_iterations").get<int>();
+    confidence = p.at("confidence").get<double>();
+    seeds = p.at("seeds").get<std::vector<std::uint32_t>>();
+  }
+};
+
+struct RansacOutcome {
+  Eigen::Matrix4f T = Eigen::Matrix4f::Identity();
+  int hypotheses = 0;
+  std::size_t correspondences = 0;
+};
+
+// RANSAC alone on putative correspondences (indices into the clouds).
+RansacOutcome ransac(const PointCloud& source, const PointCloud& target,
+                     const pcl::Correspondences& correspondences, std::uint32_t seed,
+                     const RansacParameters& p) {
+  RansacOutcome out;
+  out.correspondences = correspondences.size();
+  if (correspondences.size() < 3) return out;
+  PointCloud::Ptr s(new PointCloud), t(new PointCloud);
+  s->reserve(correspondences.size());
+  t->reserve(correspondences.size());
+  for (const pcl::Correspondence& c : correspondences) {
+    s->push_back(source[static_cast<std::size_t>(c.index_query)]);
+    t->push_back(target[static_cast<std::size_t>(c.index_match)]);
+  }
+  const auto model = std::make_shared<SeededRegistrationModel>(s, seed);
+  model->setInputTarget(t);
+  CountingRansac sac(model, p.max_distance);
+  sac.setMaxIterations(p.max_iterations);
+  sac.setProbability(p.confidence);
+  // PCL's default serial loop: its OpenMP loop (setNumberOfThreads) takes a critical section
+  // per hypothesis and was 20x slower than the serial one on these few hundred
+  // correspondences with 2 threads.
+  if (!sac.computeModel()) return out;
+  out.hypotheses = sac.hypotheses();
+  pcl::Indices inliers;
+  sac.getInliers(inliers);
+  Eigen::VectorXf coefficients, refined;
+  sac.getModelCoefficients(coefficients);
+  if (inliers.size() >= 3) {
+    model->optimizeModelCoefficients(inliers, coefficients, refined);
+    coefficients = refined;
+  }
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) out.T(r, c) = coefficients[4 * r + c];
+  return out;
+}
+
+json ransac_output(const std::vector<RansacOutcome>& runs) {
+  json transforms = json::array(), hypotheses = json::array(), correspondences = json::array();
+  for (const RansacOutcome& r : runs) {
+    transforms.push_back(row_major(r.T));
+    hypotheses.push_back(r.hypotheses);
+    correspondences.push_back(r.correspondences);
+  }
+  return {{"transforms", transforms}, {"hypotheses", hypotheses},
+          {"correspondences", correspondences}};
+}
+
+locard_pcl::Pass prepare_ransac_feature_matching(const json& task) {
+  if (!task.at("parameters").value("mutual", true))
+    throw std::runtime_error("ransac_feature_matching: only mutual matching is implemented");
+  struct Pair {
+    PointCloud::Ptr source, target;
+    Features::Ptr source_features, target_features;
+  };
+  auto pairs = std::make_shared<std::vector<Pair>>();
+  for (const json& p : task.at("inputs").at("pairs")) {
+    NormalCloud s, t;
+    locard_pcl::read_ply(p.at("source").get<std::string>(), s);
+    locard_pcl::read_ply(p.at("target").get<std::string>(), t);
+    pairs->push_back({positions(s), positions(t),
+                      read_features(p.at("source_features").get<std::string>(), s.size()),
+                      read_features(p.at("target_features").get<std::string>(), t.size())});
+  }
+  const RansacParameters parameters(task);
+  return [pairs, parameters] {
+    std::vector<RansacOutcome> runs;
+    for (const Pair& pair : *pairs) {
+      for (const std::uint32_t seed : parameters.seeds) {
+        pcl::registration::CorrespondenceEstimation<pcl::FPFHSignature33, pcl::FPFHSignature33>
+            matching;
+        matching.setInputSource(pair.source_features);
+        matching.setInputTarget(pair.target_features);
+        pcl::Correspondences matches;
+        matching.determineReciprocalCorrespondences(matches);
+        runs.push_back(ransac(*pair.source, *pair.target, matches, seed, parameters));
+      }
+    }
+    return ransac_output(runs);
+  };
+}
+
+locard_pcl::Pass prepare_ransac_correspondences(const json& task) {
+  struct Pair {
+    PointCloud::Ptr source, target;
+    pcl::Correspondences correspondences;
+  };
+  auto pairs = std::make_shared<std::vector<Pair>>();
+  for (const json& p : task.at("inputs").at("pairs")) {
+    NormalCloud s, t;
+    locard_pcl::read_ply(p.at("source").get<std::string>(), s);
+    locard_pcl::read_ply(p.at("target").get<std::string>(), t);
+    pairs->push_back({positions(s), positions(t),
+                      read_correspondences(p.at("correspondences").get<std::string>())});
+  }
+  const RansacParameters parameters(task);
+  return [pairs, parameters] {
+    std::vector<RansacOutcome> runs;
+    for (const Pair& pair : *pairs)
+      for (const std::uint32_t seed : parameters.seeds)
+        runs.push_back(ransac(*pair.source, *pair.target, pair.correspondences, seed, parameters));
+    return ransac_output(runs);
+  };
+}
+
+// IterativeClosestPointWithNormals that reports its iteration count.
+class CountingIcp
+    : public pcl::IterativeClosestPointWithNormals<pcl::PointNormal, pcl::PointNormal> {
+ public:
+  int iterations() const { return nr_iterations_; }
+};
+
+locard_pcl::Pass prepare_icp(const json& task) {
+  struct Pair {
+    NormalCloud::Ptr source, target;
+  };
+  auto pairs = std::make_shared<std::vector<Pair>>();
+  for (const json& p : task.at("inputs").at("pairs")) {
+    Pair pair{NormalCloud::Ptr(new NormalCloud), NormalCloud::Ptr(new NormalCloud)};
+    locard_pcl::read_ply(p.at("source").get<std::string>(), *pair.source);
+    locard_pcl::read_ply(p.at("target").get<std::string>(), *pair.target);
+    pairs->push_back(std::move(pair));
+  }
+  const json& p = task.at("parameters");
+  const double max_distance = p.at("max_correspondence_distance").get<double>();
+  const int max_iterations = p.at("max_iterations").get<int>();
+  const double translation_eps = p.at("translation_eps_m").get<double>();
+  const double rotation_eps_rad = p.at("rotation_eps_deg").get<double>() * M_PI / 180.0;
+  const double relative_rmse = p.at("relative_rmse").get<double>();
+  return [=] {
+    json transforms = json::array(), iterations = json::array();
+    for (const Pair& pair : *pairs) {
+      NormalCloud aligned;
+      CountingIcp icp;
+      icp.setInputSource(pair.source);
+      icp.setInputTarget(pair.target);
       icp.setMaxCorrespondenceDistance(max_distance);
       icp.setMaximumIterations(max_iterations);
-      icp.setTransformationEpsilon(1e-5 * 1e-5);  // squared translation step
-      icp.setTransformationRotationEpsilon(std::cos(1e-3 * M_PI / 180.0));
+      icp.setTransformationEpsilon(translation_eps * translation_eps);  // squared step
+      icp.setTransformationRotationEpsilon(std::cos(rotation_eps_rad));  // cos of the step angle
+      icp.setEuclideanFitnessEpsilon(relative_rmse);                    // relative MSE change
       icp.align(aligned);
-      total += seconds_since(start);
-      runs.push_back(run_json(icp.getFinalTransformation(), icp.getFitnessScore(max_distance)));
+      transforms.push_back(row_major(icp.getFinalTransformation()));
+      iterations.push_back(icp.iterations());
     }
-    best = std::min(best, total);
-  }
-  std::printf("{\"peer\": \"pcl %s\", \"pairs\": %zu, \"seconds\": %.9f, \"runs\": [",
-              PCL_VERSION_PRETTY, pairs.size(), best);
-  for (std::size_t i = 0; i < runs.size(); ++i) std::printf("%s%s", i ? ", " : "", runs[i].c_str());
-  std::printf("]}\n");
-  return 0;
-}
-
-int ransac(const char* list, float fpfh_radius, float max_distance, int seeds) {
-  double total = 0.0;
-  std::vector<std::string> runs;
-  for (const auto& [s, t] : read_pairs(list)) {
-    const Cloud::Ptr source = read_ply(s), target = read_ply(t);
-    const auto features = [&](const Cloud::Ptr& cloud) {
-      pcl::PointCloud<pcl::FPFHSignature33>::Ptr out(new pcl::PointCloud<pcl::FPFHSignature33>);
-      pcl::FPFHEstimationOMP<pcl::PointNormal, pcl::PointNormal, pcl::FPFHSignature33> fpfh;
-      fpfh.setInputCloud(cloud);
-      fpfh.setInputNormals(cloud);
-      fpfh.setSearchMethod(pcl::search::KdTree<pcl::PointNormal>::Ptr(
-          new pcl::search::KdTree<pcl::PointNormal>));
-      fpfh.setRadiusSearch(fpfh_radius);
-      fpfh.compute(*out);
-      return out;
-    };
-    const auto fs = features(source), ft = features(target);
-    for (int seed = 0; seed < seeds; ++seed) {
-      std::srand(static_cast<unsigned>(seed));  // PCL's samplers draw from rand()
-      Cloud aligned;
-      const auto start = std::chrono::steady_clock::now();
-      pcl::SampleConsensusPrerejective<pcl::PointNormal, pcl::PointNormal, pcl::FPFHSignature33>
-          align;
-      align.setInputSource(source);
-      align.setSourceFeatures(fs);
-      align.setInputTarget(target);
-      align.setTargetFeatures(ft);
-      align.setMaximumIterations(20000);
-      align.setNumberOfSamples(3);
-      align.setCorrespondenceRandomness(1);
-      align.setSimilarityThreshold(0.9f);
-      align.setMaxCorrespondenceDistance(max_distance);
-      align.setInlierFraction(0.25f);
-      align.align(aligned);
-      total += seconds_since(start);
-      runs.push_back(run_json(align.getFinalTransformation(),
-                              align.hasConverged() ? align.getFitnessScore(max_distance) : 0.0));
-    }
-  }
-  std::printf("{\"peer\": \"pcl %s\", \"seconds\": %.9f, \"runs\": [", PCL_VERSION_PRETTY, total);
-  for (std::size_t i = 0; i < runs.size(); ++i) std::printf("%s%s", i ? ", " : "", runs[i].c_str());
-  std::printf("]}\n");
-  return 0;
+    return json{{"transforms", transforms}, {"iterations", iterations}};
+  };
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::string mode = argc > 1 ? argv[1] : "";
   try {
-    if (mode == "icp" && argc == 6)
-      return icp(argv[2], std::strtod(argv[3], nullptr), std::atoi(argv[4]), std::atoi(argv[5]));
-    if (mode == "ransac" && argc == 6)
-      return ransac(argv[2], std::strtof(argv[3], nullptr), std::strtof(argv[4], nullptr),
-                    std::atoi(argv[5]));
+    return locard_pcl::serve(argc, argv, "pcl " PCL_VERSION_PRETTY,
+                             {{"ransac_feature_matching", prepare_ransac_feature_matching},
+                              {"ransac_correspondences", prepare_ransac_correspondences},
+                              {"icp_point_to_plane", prepare_icp}});
   } catch (const std::exception& e) {
     std::fprintf(stderr, "locard_pcl_registration: %s\n", e.what());
     return 1;
   }
-  std::fprintf(stderr,
-               "usage: %s icp PAIRS MAX_DISTANCE MAX_ITERATIONS REPEATS | ransac PAIRS "
-               "FPFH_RADIUS MAX_DISTANCE SEEDS\n",
-               argv[0]);
-  return 2;
 }

@@ -1,7 +1,8 @@
 #pragma once
 // Minimal reader for binary_little_endian PLY vertex data (what locard::write_ply writes:
-// float x y z, optional float nx ny nz, optional uchar red green blue), so that the PCL peer
-// needs no pcl_io (and hence no VTK). Other layouts are rejected.
+// float x y z, optional float nx ny nz, optional uchar red green blue), so that the PCL peers
+// need no pcl_io (and hence no VTK). Other layouts are rejected. Reading is preparation: the
+// peers call it outside the clock.
 
 #include <pcl/point_cloud.h>
 #include <pcl/point_types.h>
@@ -32,11 +33,29 @@ inline int type_size(const std::string& type) {
   throw std::runtime_error("unsupported PLY property type " + type);
 }
 
-// Reads positions (and colours when present) into XYZRGB points.
-inline void read_ply(const std::string& path, pcl::PointCloud<pcl::PointXYZRGB>& cloud) {
-  std::ifstream in(path, std::ios::binary);
-  std::string line;
+// The vertex block of a PLY file and where each wanted property lies in a vertex record
+// (-1: absent).
+struct PlyVertices {
   std::size_t count = 0;
+  int stride = 0;
+  int x = -1, y = -1, z = -1, nx = -1, ny = -1, nz = -1, red = -1, green = -1, blue = -1;
+  std::vector<char> data;
+
+  const char* vertex(std::size_t i) const {
+    return data.data() + i * static_cast<std::size_t>(stride);
+  }
+  static float get_float(const char* v, int offset) {
+    float f;
+    std::memcpy(&f, v + offset, 4);
+    return f;
+  }
+};
+
+inline PlyVertices read_ply_vertices(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw std::runtime_error(path + ": cannot open");
+  std::string line;
+  PlyVertices out;
   std::vector<Property> properties;
   bool in_vertex = false, binary_le = false;
   while (std::getline(in, line)) {
@@ -51,7 +70,7 @@ inline void read_ply(const std::string& path, pcl::PointCloud<pcl::PointXYZRGB>&
       std::string name;
       words >> name;
       in_vertex = name == "vertex";
-      if (in_vertex) words >> count;
+      if (in_vertex) words >> out.count;
     } else if (word == "property" && in_vertex) {
       std::string type, name;
       words >> type >> name;
@@ -61,42 +80,83 @@ inline void read_ply(const std::string& path, pcl::PointCloud<pcl::PointXYZRGB>&
     }
   }
   if (!binary_le) throw std::runtime_error(path + ": only binary_little_endian PLY is supported");
-  int stride = 0, ox = -1, oy = -1, oz = -1, orr = -1, og = -1, ob = -1;
   for (const Property& p : properties) {
-    if (p.name == "x" && p.is_float) ox = stride;
-    if (p.name == "y" && p.is_float) oy = stride;
-    if (p.name == "z" && p.is_float) oz = stride;
-    if (p.name == "red" && p.size == 1) orr = stride;
-    if (p.name == "green" && p.size == 1) og = stride;
-    if (p.name == "blue" && p.size == 1) ob = stride;
-    stride += p.size;
+    const auto at = [&](const char* name, int& offset, bool is_float, int size) {
+      if (p.name == name && p.is_float == is_float && p.size == size) offset = out.stride;
+    };
+    at("x", out.x, true, 4);
+    at("y", out.y, true, 4);
+    at("z", out.z, true, 4);
+    at("nx", out.nx, true, 4);
+    at("ny", out.ny, true, 4);
+    at("nz", out.nz, true, 4);
+    at("red", out.red, false, 1);
+    at("green", out.green, false, 1);
+    at("blue", out.blue, false, 1);
+    out.stride += p.size;
   }
-  if (ox < 0 || oy < 0 || oz < 0) throw std::runtime_error(path + ": no float x y z");
-  std::vector<char> data(count * static_cast<std::size_t>(stride));
-  in.read(data.data(), static_cast<std::streamsize>(data.size()));
+  if (out.x < 0 || out.y < 0 || out.z < 0) throw std::runtime_error(path + ": no float x y z");
+  out.data.resize(out.count * static_cast<std::size_t>(out.stride));
+  in.read(out.data.data(), static_cast<std::streamsize>(out.data.size()));
   if (!in) throw std::runtime_error(path + ": truncated");
-  cloud.resize(count);
-  for (std::size_t i = 0; i < count; ++i) {
-    const char* v = data.data() + i * stride;
-    pcl::PointXYZRGB& p = cloud[i];
-    std::memcpy(&p.x, v + ox, 4);
-    std::memcpy(&p.y, v + oy, 4);
-    std::memcpy(&p.z, v + oz, 4);
-    if (orr >= 0 && og >= 0 && ob >= 0) {
-      p.r = static_cast<std::uint8_t>(v[orr]);
-      p.g = static_cast<std::uint8_t>(v[og]);
-      p.b = static_cast<std::uint8_t>(v[ob]);
-    }
-  }
-  cloud.width = static_cast<std::uint32_t>(count);
+  return out;
+}
+
+template <typename Point>
+void set_dense(pcl::PointCloud<Point>& cloud) {
+  cloud.width = static_cast<std::uint32_t>(cloud.size());
   cloud.height = 1;
   cloud.is_dense = true;
 }
 
+// Reads positions (and colours when present) into XYZRGB points.
+inline void read_ply(const std::string& path, pcl::PointCloud<pcl::PointXYZRGB>& cloud) {
+  const PlyVertices ply = read_ply_vertices(path);
+  const bool colour = ply.red >= 0 && ply.green >= 0 && ply.blue >= 0;
+  cloud.resize(ply.count);
+  for (std::size_t i = 0; i < ply.count; ++i) {
+    const char* v = ply.vertex(i);
+    pcl::PointXYZRGB& p = cloud[i];
+    p.x = PlyVertices::get_float(v, ply.x);
+    p.y = PlyVertices::get_float(v, ply.y);
+    p.z = PlyVertices::get_float(v, ply.z);
+    if (colour) {
+      p.r = static_cast<std::uint8_t>(v[ply.red]);
+      p.g = static_cast<std::uint8_t>(v[ply.green]);
+      p.b = static_cast<std::uint8_t>(v[ply.blue]);
+    }
+  }
+  set_dense(cloud);
+}
+
 inline void read_ply(const std::string& path, pcl::PointCloud<pcl::PointXYZ>& cloud) {
-  pcl::PointCloud<pcl::PointXYZRGB> coloured;
-  read_ply(path, coloured);
-  pcl::copyPointCloud(coloured, cloud);
+  const PlyVertices ply = read_ply_vertices(path);
+  cloud.resize(ply.count);
+  for (std::size_t i = 0; i < ply.count; ++i) {
+    const char* v = ply.vertex(i);
+    cloud[i] = pcl::PointXYZ(PlyVertices::get_float(v, ply.x), PlyVertices::get_float(v, ply.y),
+                             PlyVertices::get_float(v, ply.z));
+  }
+  set_dense(cloud);
+}
+
+// Positions and normals; the file must have float nx ny nz.
+inline void read_ply(const std::string& path, pcl::PointCloud<pcl::PointNormal>& cloud) {
+  const PlyVertices ply = read_ply_vertices(path);
+  if (ply.nx < 0 || ply.ny < 0 || ply.nz < 0)
+    throw std::runtime_error(path + ": no float nx ny nz");
+  cloud.resize(ply.count);
+  for (std::size_t i = 0; i < ply.count; ++i) {
+    const char* v = ply.vertex(i);
+    pcl::PointNormal& p = cloud[i];
+    p.x = PlyVertices::get_float(v, ply.x);
+    p.y = PlyVertices::get_float(v, ply.y);
+    p.z = PlyVertices::get_float(v, ply.z);
+    p.normal_x = PlyVertices::get_float(v, ply.nx);
+    p.normal_y = PlyVertices::get_float(v, ply.ny);
+    p.normal_z = PlyVertices::get_float(v, ply.nz);
+  }
+  set_dense(cloud);
 }
 
 }  // namespace locard_pcl

@@ -1,44 +1,34 @@
 #!/usr/bin/python3
-"""Open3D peer for bench/registration_bench: the same registrations on the same clouds.
+"""Open3D peer for bench/registration_bench (protocol: peer_protocol.py).
 
+Clouds are the PLY files the benchmark wrote (with normals); features are raw little-endian
+float32, 33 per point, in the clouds' point order. Everything is read untimed. Every kernel
+returns {"transforms": [row-major 4x4, ...]} in the workload's order (pair-major, seed-minor
+for RANSAC), scored by the benchmark's one evaluator.
+
+  ransac_feature_matching  inputs.pairs[]: source, target, source_features, target_features.
+      Timed, for every pair and every seed of parameters.seeds: o3d.utility.random.seed(seed),
+      registration_ransac_based_on_feature_matching (mutual filter = parameters.mutual,
+      point-to-point Kabsch, ransac_n, edge-length and distance checkers,
+      RANSACConvergenceCriteria(max_iterations, confidence)); descriptor matching included, as
+      on Locard's side.
+  ransac_correspondences   inputs.pairs[]: source, target, correspondences (text, one "s t"
+      per line). Timed, for every pair and seed: registration_ransac_based_on_correspondence
+      with the same estimation, checkers and criteria: RANSAC alone, on identical input.
+  icp_point_to_plane       inputs.pairs[]: source, target. Timed, per pair: registration_icp
+      point-to-plane from the identity (KD-tree build included) with
+      ICPConvergenceCriteria(relative_fitness, relative_rmse, max_iterations); Open3D has no
+      step-size criterion (rotation_eps_deg, translation_eps_m are not used).
 Run with Debian's interpreter (/usr/bin/python3), which has python3-open3d.
-
-  open3d_registration.py icp PAIRS MAX_DISTANCE MAX_ITERATIONS REPEATS
-      PAIRS is a text file, one "SOURCE.ply TARGET.ply" per line (clouds with normals).
-      Point-to-plane registration_icp from the identity, Open3D's default convergence criteria
-      (relative fitness and RMSE 1e-6) with MAX_ITERATIONS. Times every pair (KD-tree build
-      included, file reading excluded); total seconds = best of REPEATS.
-  open3d_registration.py ransac PAIRS FPFH_RADIUS FPFH_MAX_NN MAX_DISTANCE SEEDS
-      PAIRS as above. FPFH with the clouds' own normals (not timed), then for every seed in
-      0..SEEDS-1: o3d.utility.random.seed(seed) and
-      registration_ransac_based_on_feature_matching (mutual filter, point-to-point Kabsch,
-      ransac_n 3, edge-length 0.9 and distance checkers, RANSACConvergenceCriteria(100000,
-      0.999)), timed (descriptor matching included, as Locard's side).
-  open3d_registration.py ransac_corr PAIRS MAX_DISTANCE SEEDS
-      PAIRS lines are "SOURCE.ply TARGET.ply MATCHES.txt", MATCHES holding one "s t" index pair
-      per line (the correspondences Locard's RANSAC gets). For every seed:
-      registration_ransac_based_on_correspondence with the same estimation, checkers and
-      criteria as above, timed: RANSAC alone, on identical input.
-Prints one JSON object with the transforms (row-major 4x4), fitness and RMSE per run.
 """
-import json
 import sys
-import time
 
 import numpy as np
 import open3d as o3d
 
+from peer_protocol import serve
+
 reg = o3d.pipelines.registration
-
-
-def read_pairs(path):
-    pairs = []
-    with open(path) as f:
-        for line in f:
-            if line.strip():
-                source, target = line.split()
-                pairs.append((source, target))
-    return pairs
 
 
 def load(path):
@@ -48,87 +38,99 @@ def load(path):
     return cloud
 
 
-def icp(pairs_path, max_distance, max_iterations, repeats):
-    pairs = [(load(s), load(t)) for s, t in read_pairs(pairs_path)]
-    criteria = reg.ICPConvergenceCriteria(relative_fitness=1e-6, relative_rmse=1e-6,
-                                          max_iteration=max_iterations)
-    estimation = reg.TransformationEstimationPointToPlane()
-    best = float("inf")
-    runs = []
-    for _ in range(repeats):
-        total = 0.0
-        runs = []
-        for source, target in pairs:
-            start = time.perf_counter()
-            result = reg.registration_icp(source, target, max_distance, np.identity(4),
-                                          estimation, criteria)
-            total += time.perf_counter() - start
-            runs.append({"T": np.asarray(result.transformation).reshape(-1).tolist(),
-                         "fitness": result.fitness, "rmse": result.inlier_rmse})
-        best = min(best, total)
-    print(json.dumps({"peer": "open3d " + o3d.__version__, "pairs": len(pairs),
-                      "seconds": best, "runs": runs}))
+def load_features(path, points):
+    data = np.fromfile(path, dtype="<f4")
+    if data.size != 33 * points:
+        sys.exit(f"{path}: {data.size} floats, {33 * points} expected")
+    feature = reg.Feature()
+    feature.data = data.reshape(points, 33).T.astype(np.float64)
+    return feature
 
 
-def ransac(pairs_path, fpfh_radius, fpfh_max_nn, max_distance, seeds):
-    search = o3d.geometry.KDTreeSearchParamHybrid(radius=fpfh_radius, max_nn=fpfh_max_nn)
-    checkers = [reg.CorrespondenceCheckerBasedOnEdgeLength(0.9),
-                reg.CorrespondenceCheckerBasedOnDistance(max_distance)]
-    criteria = reg.RANSACConvergenceCriteria(100000, 0.999)
-    total = 0.0
-    runs = []
-    for source_path, target_path in read_pairs(pairs_path):
-        source, target = load(source_path), load(target_path)
-        fs = reg.compute_fpfh_feature(source, search)
-        ft = reg.compute_fpfh_feature(target, search)
-        for seed in range(seeds):
+def row_major(transformation):
+    return np.asarray(transformation).reshape(-1).tolist()
+
+
+def ransac_setup(task):
+    p = task["parameters"]
+    checkers = [reg.CorrespondenceCheckerBasedOnEdgeLength(p["edge_length_ratio"]),
+                reg.CorrespondenceCheckerBasedOnDistance(p["max_correspondence_distance"])]
+    criteria = reg.RANSACConvergenceCriteria(p["max_iterations"], p["confidence"])
+    return checkers, criteria
+
+
+def prepare_ransac_feature_matching(task):
+    pairs = []
+    for pair in task["inputs"]["pairs"]:
+        source, target = load(pair["source"]), load(pair["target"])
+        pairs.append((source, target,
+                      load_features(pair["source_features"], len(source.points)),
+                      load_features(pair["target_features"], len(target.points))))
+    return pairs, ransac_setup(task)
+
+
+def ransac_feature_matching(state, task):
+    pairs, (checkers, criteria) = state
+    p = task["parameters"]
+    transforms = []
+    for source, target, fs, ft in pairs:
+        for seed in p["seeds"]:
             o3d.utility.random.seed(seed)
-            start = time.perf_counter()
             result = reg.registration_ransac_based_on_feature_matching(
-                source, target, fs, ft, True, max_distance,
-                reg.TransformationEstimationPointToPoint(False), 3, checkers, criteria)
-            total += time.perf_counter() - start
-            runs.append({"T": np.asarray(result.transformation).reshape(-1).tolist(),
-                         "fitness": result.fitness, "rmse": result.inlier_rmse})
-    print(json.dumps({"peer": "open3d " + o3d.__version__, "seconds": total, "runs": runs}))
+                source, target, fs, ft, p["mutual"], p["max_correspondence_distance"],
+                reg.TransformationEstimationPointToPoint(False), p["ransac_n"], checkers,
+                criteria)
+            transforms.append(row_major(result.transformation))
+    return {"transforms": transforms}
 
 
-def ransac_corr(pairs_path, max_distance, seeds):
-    checkers = [reg.CorrespondenceCheckerBasedOnEdgeLength(0.9),
-                reg.CorrespondenceCheckerBasedOnDistance(max_distance)]
-    criteria = reg.RANSACConvergenceCriteria(100000, 0.999)
-    total = 0.0
-    runs = []
-    with open(pairs_path) as f:
-        lines = [line.split() for line in f if line.strip()]
-    for source_path, target_path, matches_path in lines:
-        source, target = load(source_path), load(target_path)
-        matches = np.loadtxt(matches_path, dtype=np.int32, ndmin=2)
-        corres = o3d.utility.Vector2iVector(matches)
-        for seed in range(seeds):
+def prepare_ransac_correspondences(task):
+    pairs = []
+    for pair in task["inputs"]["pairs"]:
+        matches = np.loadtxt(pair["correspondences"], dtype=np.int32, ndmin=2)
+        pairs.append((load(pair["source"]), load(pair["target"]),
+                      o3d.utility.Vector2iVector(matches)))
+    return pairs, ransac_setup(task)
+
+
+def ransac_correspondences(state, task):
+    pairs, (checkers, criteria) = state
+    p = task["parameters"]
+    transforms = []
+    for source, target, corres in pairs:
+        for seed in p["seeds"]:
             o3d.utility.random.seed(seed)
-            start = time.perf_counter()
             result = reg.registration_ransac_based_on_correspondence(
-                source, target, corres, max_distance,
-                reg.TransformationEstimationPointToPoint(False), 3, checkers, criteria)
-            total += time.perf_counter() - start
-            runs.append({"T": np.asarray(result.transformation).reshape(-1).tolist(),
-                         "fitness": result.fitness, "rmse": result.inlier_rmse})
-    print(json.dumps({"peer": "open3d " + o3d.__version__, "seconds": total, "runs": runs}))
+                source, target, corres, p["max_correspondence_distance"],
+                reg.TransformationEstimationPointToPoint(False), p["ransac_n"], checkers,
+                criteria)
+            transforms.append(row_major(result.transformation))
+    return {"transforms": transforms}
 
 
-def main():
-    mode = sys.argv[1]
-    if mode == "icp":
-        icp(sys.argv[2], float(sys.argv[3]), int(sys.argv[4]), int(sys.argv[5]))
-    elif mode == "ransac":
-        ransac(sys.argv[2], float(sys.argv[3]), int(sys.argv[4]), float(sys.argv[5]),
-               int(sys.argv[6]))
-    elif mode == "ransac_corr":
-        ransac_corr(sys.argv[2], float(sys.argv[3]), int(sys.argv[4]))
-    else:
-        sys.exit(f"unknown mode {mode}")
+def prepare_icp(task):
+    p = task["parameters"]
+    pairs = [(load(pair["source"]), load(pair["target"])) for pair in task["inputs"]["pairs"]]
+    criteria = reg.ICPConvergenceCriteria(relative_fitness=p["relative_fitness"],
+                                          relative_rmse=p["relative_rmse"],
+                                          max_iteration=p["max_iterations"])
+    return pairs, criteria
+
+
+def icp_point_to_plane(state, task):
+    pairs, criteria = state
+    distance = task["parameters"]["max_correspondence_distance"]
+    estimation = reg.TransformationEstimationPointToPlane()
+    transforms = []
+    for source, target in pairs:
+        result = reg.registration_icp(source, target, distance, np.identity(4), estimation,
+                                      criteria)
+        transforms.append(row_major(result.transformation))
+    return {"transforms": transforms}
 
 
 if __name__ == "__main__":
-    main()
+    serve("open3d " + o3d.__version__,
+          {"ransac_feature_matching": (prepare_ransac_feature_matching, ransac_feature_matching),
+           "ransac_correspondences": (prepare_ransac_correspondences, ransac_correspondences),
+           "icp_point_to_plane": (prepare_icp, icp_point_to_plane)})
