@@ -279,6 +279,10 @@ void report_features(const bench::Comparison& c, const nlohmann::json& parameter
                              100.0 * off / static_cast<double>(fpfh.size() / 33));
       }
     }
+    // A peer without the neighbour cap (PCL) uses every point within the radius: another
+    // neighbourhood, so its normals and descriptors differ by construction.
+    if (!run->output.value("neighbour_caps_applied", true))
+      score += " (no neighbour cap: every point within the radius)";
     fmt::print("  {:<8} {:>7} {:>11}  {}\n", run->side, number(run->output, "points"),
                with_fpfh ? fmt::format("{}", number(run->output, "descriptors")) : "", score);
   }
