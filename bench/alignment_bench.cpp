@@ -22,7 +22,7 @@
 //            the ATE (Locard only: no peer aligns a tripod turn).
 //
 //   build/release/bench/alignment_bench --benchmark_filter=align_7scenes [--repeats=N]
-#include "bench_peers.hpp"
+#include "bench_data.hpp"
 #include "peer_harness.hpp"
 
 #include <locard/alignment/alignment_defaults.hpp>

@@ -9,7 +9,7 @@
 // PCL is measured when <build>/bench/pcl/locard_pcl_peer exists (configure with
 // -DLOCARD_WITH_PCL=ON) or LOCARD_PCL_PEER_DIR names its folder.
 
-#include "bench_peers.hpp"
+#include "bench_data.hpp"
 #include "peer_harness.hpp"
 
 #include <locard/io/ply.hpp>

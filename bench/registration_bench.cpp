@@ -36,7 +36,7 @@
 //   build/release/bench/registration_bench [--benchmark_filter=icp] [--repeats=N] [--warmup=N]
 // PCL is measured when <build>/bench/pcl/locard_pcl_registration exists (configure with
 // -DLOCARD_WITH_PCL=ON) or LOCARD_PCL_PEER_DIR names its folder.
-#include "bench_peers.hpp"
+#include "bench_data.hpp"
 #include "peer_harness.hpp"
 
 #include <locard/core/kdtree.hpp>

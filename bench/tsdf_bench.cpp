@@ -10,7 +10,7 @@
 //
 //   build/release/bench/tsdf_bench [--repeats=N]
 //   LOCARD_TSDF_STEP=4 build/release/bench/tsdf_bench   # every 4th frame, for a quick look
-#include "bench_peers.hpp"
+#include "bench_data.hpp"
 #include "peer_harness.hpp"
 
 #include <locard/io/rgbd_sequence.hpp>
