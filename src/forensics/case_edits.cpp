@@ -1,10 +1,9 @@
 #include <locard/forensics/case_edits.hpp>
 
 #include "forensics/json_util.hpp"
-#include "forensics/measurement_files.hpp"
-#include "forensics/revisions_json.hpp"
 
 #include <locard/core/error.hpp>
+#include <locard/forensics/case_measurements.hpp>
 #include <locard/forensics/evidence_markers.hpp>
 #include <locard/forensics/trajectory_analysis.hpp>
 
@@ -115,24 +114,16 @@ Applied edit_marker(CaseFolder& folder, const CaseEdit& e) {
 }
 
 Applied edit_measurement(CaseFolder& folder, const CaseEdit& e) {
-  json all = read_measurements_file(folder.path(kMeasurementsJson));
-  json& list = all["measurements"];
+  std::vector<CaseMeasurement> all = read_case_measurements(folder.path(kCaseMeasurementsJson));
   std::vector<std::string> names;
-  for (const json& m : list) names.push_back(m["name"].get<std::string>());
+  for (const CaseMeasurement& m : all) names.push_back(m.name);
   const std::size_t i = pick(names, e.which, "measurement");
-  json& m = list[i];
-  Revisions r = get_revisions(m, fmt::format("{}: measurement {}", kMeasurementsJson.string(), i + 1));
-  std::string name = names[i];
   std::vector<std::string> others = names;
   others.erase(others.begin() + static_cast<std::ptrdiff_t>(i));
-  revise(r, name, e, "measurement", others);
-  m["name"] = name;
-  m.erase("previous_names");
-  m.erase("withdrawn");
-  put_revisions(m, r);
-  write_measurements_files(folder.path(kMeasurementsJson), all);
-  return {{kMeasurementsJson, kMeasurementsCsv},
-          describe(e, fmt::format("measurement #{}", i + 1), names[i], name),
+  revise(all[i].revisions, all[i].name, e, "measurement", others);
+  write_case_measurements(folder.path(kCaseMeasurementsJson), all);
+  return {{kCaseMeasurementsJson, kCaseMeasurementsCsv},
+          describe(e, fmt::format("measurement #{}", i + 1), names[i], all[i].name),
           {{"position", i + 1}, {"name", names[i]}}};
 }
 
@@ -154,7 +145,7 @@ Applied edit_trajectory(CaseFolder& folder, const CaseEdit& e) {
 std::vector<fs::path> files_of(CaseObjectKind kind) {
   switch (kind) {
     case CaseObjectKind::Marker: return {kMarkersJson, kMarkersCsv};
-    case CaseObjectKind::Measurement: return {kMeasurementsJson, kMeasurementsCsv};
+    case CaseObjectKind::Measurement: return {kCaseMeasurementsJson, kCaseMeasurementsCsv};
     case CaseObjectKind::Trajectory: return {kTrajectoriesJson, kTrajectoriesCsv};
   }
   return {};
@@ -182,7 +173,7 @@ std::string case_objects_csv(const CaseFolder& folder, CaseObjectKind kind) {
   switch (kind) {
     case CaseObjectKind::Marker: return markers_csv(read_markers(folder.path(kMarkersJson)));
     case CaseObjectKind::Measurement:
-      return measurements_csv(read_measurements_file(folder.path(kMeasurementsJson)));
+      return case_measurements_csv(read_case_measurements(folder.path(kCaseMeasurementsJson)));
     case CaseObjectKind::Trajectory:
       return trajectory_analyses_csv(read_trajectory_analyses(folder.path(kTrajectoriesJson)));
   }

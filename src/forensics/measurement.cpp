@@ -1,8 +1,8 @@
 #include <locard/forensics/measurement.hpp>
 
+#include "forensics/case_measurements_json.hpp"
 #include "forensics/csv_field.hpp"
 #include "forensics/json_util.hpp"
-#include "forensics/measurement_files.hpp"
 #include "io/json_file.hpp"
 
 #include <locard/core/atomic_file.hpp>
@@ -685,42 +685,9 @@ std::vector<TableRow> compare_with_reference(const CaseModel& model,
 namespace locard::forensics {
 namespace {
 
-nlohmann::json snapped_json(const SnappedPoint& s) {
-  return {{"given", vec_json(s.given)},
-          {"snapped", vec_json(s.snapped)},
-          {"feature", to_string(s.feature)},
-          {"snapped_to_feature", is_snapped(s.feature)},
-          {"views", s.views},
-          {"points", s.points},
-          {"planes", s.planes},
-          {"standard_uncertainty_m", std::sqrt(std::max(0.0, s.covariance.trace()))}};
-}
-
+// A Table I row's measurement as the case's measurements hold one (case_measurements.hpp).
 nlohmann::json p2p_json(const PointToPointMeasurement& m) {
-  return {{"kind", "point_to_point"},
-          {"a", snapped_json(m.a)},
-          {"b", snapped_json(m.b)},
-          {"distance_m", m.distance_m},
-          {"standard_uncertainty_m", m.standard_uncertainty_m},
-          {"expanded_uncertainty_m", m.expanded_uncertainty_m},
-          {"coverage_factor", m.coverage_factor}};
-}
-
-nlohmann::json plane_json(const PlaneEstimate& p) {
-  return {{"point", vec_json(p.point)},      {"normal", vec_json(p.normal)},
-          {"rms_m", p.rms_m},                {"points", p.points},
-          {"offset_sigma_m", p.offset_sigma_m}, {"normal_sigma_deg", p.normal_sigma_rad * 180.0 / M_PI}};
-}
-
-std::vector<std::filesystem::path> append_json(const CaseFolder& folder,
-                                               const std::string& name, nlohmann::json entry) {
-  if (name.empty()) throw InputError("a measurement needs a name");
-  nlohmann::json all = read_measurements_file(folder.path(kMeasurementsJson));
-  entry["name"] = name;
-  entry["created"] = utc_now_iso8601();
-  all["measurements"].push_back(entry);
-  write_measurements_files(folder.path(kMeasurementsJson), all);
-  return {kMeasurementsJson, kMeasurementsCsv};
+  return measurement_content_json(case_measurement("", m));
 }
 
 }  // namespace
@@ -728,30 +695,18 @@ std::vector<std::filesystem::path> append_json(const CaseFolder& folder,
 std::string measurement_json(const PointToPointMeasurement& m) { return p2p_json(m).dump(); }
 
 std::vector<std::filesystem::path> append_measurement(const CaseFolder& folder, const std::string& name,
-                                         const PointToPointMeasurement& m) {
-  return append_json(folder, name, p2p_json(m));
+                                                      const PointToPointMeasurement& m) {
+  return append_case_measurement(folder, case_measurement(name, m));
 }
 
 std::vector<std::filesystem::path> append_measurement(const CaseFolder& folder, const std::string& name,
-                                         const PointToPlaneMeasurement& m) {
-  return append_json(folder, name,
-                     {{"kind", "point_to_plane"},
-                      {"point", snapped_json(m.point)},
-                      {"plane", plane_json(m.plane)},
-                      {"distance_m", m.distance_m},
-                      {"standard_uncertainty_m", m.standard_uncertainty_m},
-                      {"expanded_uncertainty_m", m.expanded_uncertainty_m}});
+                                                      const PointToPlaneMeasurement& m) {
+  return append_case_measurement(folder, case_measurement(name, m));
 }
 
 std::vector<std::filesystem::path> append_measurement(const CaseFolder& folder, const std::string& name,
-                                         const PlaneAngleMeasurement& m) {
-  return append_json(folder, name,
-                     {{"kind", "plane_angle"},
-                      {"first", plane_json(m.first)},
-                      {"second", plane_json(m.second)},
-                      {"angle_deg", m.angle_deg},
-                      {"standard_uncertainty_deg", m.standard_uncertainty_deg},
-                      {"expanded_uncertainty_deg", m.expanded_uncertainty_deg}});
+                                                      const PlaneAngleMeasurement& m) {
+  return append_case_measurement(folder, case_measurement(name, m));
 }
 
 void write_measurement_table(const CaseFolder& folder, const std::vector<TableRow>& rows) {

@@ -1,12 +1,12 @@
 #include <locard/forensics/report.hpp>
 
 #include "forensics/json_util.hpp"
-#include "forensics/revisions_json.hpp"
 
 #include <locard/core/atomic_file.hpp>
 #include <locard/core/error.hpp>
 #include <locard/core/raycaster.hpp>
 #include <locard/forensics/case_folder.hpp>
+#include <locard/forensics/case_measurements.hpp>
 #include <locard/forensics/case_metadata.hpp>
 #include <locard/forensics/evidence_markers.hpp>
 #include <locard/forensics/integrity.hpp>
@@ -308,17 +308,14 @@ std::string floor_plan_section(const fs::path& root, const TopView& top, const s
                                   fmt::format("{:.1f} cm", 100.0 * r.value("model_m", 0.0))))
         dims.push_back(*d);
     }
-  if (const json o = read_json_or_null(root / "measurements" / "measurements.json"); !o.is_null())
-    for (const json& m : o["measurements"]) {
-      if (m.contains("withdrawn") || m.value("kind", "") != "point_to_point") continue;
-      const bool snapped = m.contains("a") && m.contains("b") &&
-                           m["a"].value("snapped_to_feature", false) &&
-                           m["b"].value("snapped_to_feature", false);
-      if (auto d = plan_dimension(m, m.value("name", ""),
-                                  fmt::format("{:.1f} cm{}", 100.0 * m.value("distance_m", 0.0),
-                                              snapped ? "" : " (an end not snapped: as picked)")))
-        dims.push_back(*d);
-    }
+  for (const CaseMeasurement& m : read_case_measurements(root / kCaseMeasurementsJson)) {
+    if (m.revisions.withdrawn() || m.kind != MeasurementKind::PointToPoint) continue;
+    const bool snapped = m.a->fixed_by_model() && m.b->fixed_by_model();
+    dims.push_back({m.name,
+                    fmt::format("{:.1f} cm{}", 100.0 * m.value,
+                                snapped ? "" : " (an end not snapped: as picked)"),
+                    m.a->snapped, m.b->snapped});
+  }
   std::string h = "<h2 id=\"floor-plan\">Dimensioned floor plan</h2>\n";
   if (dims.empty()) {
     h += "<p class=\"note\">No measurements to draw yet (<code>locard measure</code>).</p>\n";
@@ -648,21 +645,19 @@ std::string table_one_section(const fs::path& root) {
     }
     h += "</table>\n";
   }
-  if (const json adhoc = read_json_or_null(root / "measurements" / "measurements.json"); !adhoc.is_null()) {
+  if (const fs::path adhoc = root / kCaseMeasurementsJson; fs::exists(adhoc)) {
     h += "<h3>Other measurements</h3><table id=\"other-measurements\"><tr><th>name</th>"
          "<th>kind</th><th>value</th><th>U (k=2)</th><th>status</th></tr>";
-    for (const json& m : adhoc["measurements"]) {
-      const std::string kind = m.value("kind", "");
-      const bool angle = kind == "plane_angle";
-      const Revisions revisions = get_revisions(m, "measurements/measurements.json");
+    for (const CaseMeasurement& m : read_case_measurements(adhoc)) {
+      const bool angle = m.is_angle();
       h += fmt::format("<tr{}><td>{}</td><td>{}</td><td class=n>{}</td><td class=n>{}</td><td>{}</td></tr>",
-                       revision_class(revisions), revised_name(m.value("name", ""), revisions),
-                       esc(kind),
-                       angle ? fmt::format("{:.2f}&deg;", m.value("angle_deg", 0.0))
-                             : fmt::format("{:.4f} m", m.value("distance_m", 0.0)),
-                       angle ? fmt::format("{:.2f}&deg;", m.value("expanded_uncertainty_deg", 0.0))
-                             : fmt::format("{} mm", mm(m.value("expanded_uncertainty_m", 0.0))),
-                       revision_status(revisions));
+                       revision_class(m.revisions), revised_name(m.name, m.revisions),
+                       esc(std::string(to_string(m.kind))),
+                       angle ? fmt::format("{:.2f}&deg;", m.value)
+                             : fmt::format("{:.4f} m", m.value),
+                       angle ? fmt::format("{:.2f}&deg;", m.expanded_uncertainty)
+                             : fmt::format("{} mm", mm(m.expanded_uncertainty)),
+                       revision_status(m.revisions));
     }
     h += "</table>\n";
   }

@@ -4,12 +4,14 @@
 // CLI does.
 #include <locard/viewer/case_api.hpp>
 
+#include "forensics/case_measurements_json.hpp"
 #include "forensics/revisions_json.hpp"
 
 #include <locard/core/atomic_file.hpp>
 #include <locard/core/error.hpp>
 #include <locard/forensics/case_edits.hpp>
 #include <locard/forensics/case_folder.hpp>
+#include <locard/forensics/case_measurements.hpp>
 #include <locard/forensics/case_model.hpp>
 #include <locard/forensics/evidence_markers.hpp>
 #include <locard/forensics/measurement.hpp>
@@ -73,17 +75,6 @@ Eigen::Vector3d point_field(const json& body, const char* key) {
 }
 
 json to_json(const Eigen::Vector3d& p) { return json::array({p.x(), p.y(), p.z()}); }
-
-json to_json(const forensics::SnappedPoint& p) {
-  return json{{"given", to_json(p.given)},
-              {"snapped", to_json(p.snapped)},
-              {"feature", forensics::to_string(p.feature)},
-              {"snapped_to_feature", forensics::is_snapped(p.feature)},
-              {"standard_uncertainty_m", std::sqrt(std::max(0.0, p.covariance.trace()))},
-              {"views", p.views},
-              {"points", p.points},
-              {"planes", p.planes}};
-}
 
 json to_json(const forensics::EvidenceMarker& m) {
   json out{{"number", m.number},
@@ -333,12 +324,9 @@ ApiResponse CaseApi::measure(std::string_view body) {
   const auto start = std::chrono::steady_clock::now();
   const forensics::PointToPointMeasurement m =
       forensics::measure_point_to_point(impl_->model(), a, b);
-  json out{{"a", to_json(m.a)},
-           {"b", to_json(m.b)},
-           {"distance_m", m.distance_m},
-           {"standard_uncertainty_m", m.standard_uncertainty_m},
-           {"expanded_uncertainty_m", m.expanded_uncertainty_m},
-           {"coverage_factor", m.coverage_factor}};
+  // The ends, distance and uncertainties as the case's file records them, without the kind.
+  json out = forensics::measurement_content_json(forensics::case_measurement("", m));
+  out.erase("kind");
   if (!save) return json_response(out);
   // Saved like `locard measure`: appended to measurements/measurements.json, one log step.
   forensics::CaseFolder folder = impl_->folder(forensics::CaseAccess::Change);
@@ -455,12 +443,12 @@ ApiResponse CaseApi::trajectory(std::string_view body) {
 }
 
 ApiResponse CaseApi::measurements() {
-  const fs::path path = impl_->root / "measurements/measurements.json";
-  if (!is_regular(path)) return json_response(json{{"measurements", json::array()}});
-  auto all = read_json_file(path);
-  if (!all || !all->is_object() || !all->contains("measurements"))
-    return error_response(500, "measurements/measurements.json is not a measurements file");
-  return json_response(*all);
+  try {  // the file as it is, through the one reader (none yet: an empty list)
+    return json_response(forensics::case_measurements_to_json(
+        forensics::read_case_measurements(impl_->root / forensics::kCaseMeasurementsJson)));
+  } catch (const InputError& e) {  // the case's file, not the request, is wrong
+    return error_response(500, e.what());
+  }
 }
 
 ApiResponse CaseApi::trajectories() {

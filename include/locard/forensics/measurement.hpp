@@ -179,8 +179,9 @@ std::vector<TableRow> compare_with_reference(const CaseModel& model,
 void write_measurement_table(const CaseFolder& folder, const std::vector<TableRow>& rows);
 
 // Ad-hoc measurements (CLI `locard measure`, the viewer) are appended to
-// measurements/measurements.json ({"measurements": [{"name", "kind", ...}]}) and the CSV
-// beside it; returns the case-relative paths written. The caller appends the log step.
+// measurements/measurements.json and the CSV beside it (case_measurements.hpp: the format, its
+// typed reader and writer; append_case_measurement(case_measurement(name, m))); returns the
+// case-relative paths written. The caller appends the log step.
 std::vector<std::filesystem::path> append_measurement(const CaseFolder& folder,
                                                       const std::string& name,
                                                       const PointToPointMeasurement& m);
@@ -190,7 +191,7 @@ std::vector<std::filesystem::path> append_measurement(const CaseFolder& folder,
 std::vector<std::filesystem::path> append_measurement(const CaseFolder& folder,
                                                       const std::string& name,
                                                       const PlaneAngleMeasurement& m);
-// One measurement as JSON text (what append_measurement stores).
+// One measurement as JSON text (what append_measurement stores, without name and time).
 std::string measurement_json(const PointToPointMeasurement& m);
 
 }  // namespace locard::forensics
