@@ -31,8 +31,8 @@
 //    of its vertices to the oracle's surface (median, 90th percentile; "accuracy") and share of
 //    the oracle's vertices within 2 cm of its surface ("completeness"). Distances are to the
 //    closest triangle around the nearest vertex of the other mesh.
-// The CPU column of the table counts each process alone; the Open3D workers' CPU is added in
-// the quality lines. The load average is printed: on a shared machine it explains the noise.
+// CPU times include the Open3D peer's worker processes (peer_protocol.py counts finished
+// children); its quality line also shows the workers' share. The load average is printed: on a shared machine it explains the noise.
 //
 //   build/release/bench/reconstruct_bench --repeats=1 --warmup=0
 //   LOCARD_RECONSTRUCT_BENCH_FRAMES=60 build/release/bench/reconstruct_bench
@@ -336,10 +336,10 @@ void report(const bench::Comparison& c) {
   }
 
   fmt::print("  {:<8} {:>9} {:>10} {:>10} {:>10} {:>10} {:>11} {:>9}\n", "side", "posed",
-             "ATE rmse", "median", "max", "vertices", "triangles", "CPU+wk s");
+             "ATE rmse", "median", "max", "vertices", "triangles", "CPU s");
   for (const Scored& s : scored) {
     const json& o = s.run->output;
-    const double cpu = s.run->timings.median_cpu() + o.value("worker_cpu_s", 0.0);
+    const double cpu = s.run->timings.median_cpu();  // workers included (peer_protocol.py)
     fmt::print("  {:<8} {:>4}/{:<4} {:>7.1f} mm {:>7.1f} mm {:>7.1f} mm {:>10} {:>11} {:>9.1f}\n",
                s.side, s.posed, total, s.ate ? 1e3 * s.ate->translation.rmse : NAN,
                s.ate ? 1e3 * s.ate->translation.median : NAN,
