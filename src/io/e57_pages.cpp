@@ -131,19 +131,6 @@ void check_and_strip_pages(const std::filesystem::path& path, std::uint8_t* data
   }
 }
 
-Bytes read_file_bytes(const std::filesystem::path& path) {
-  io_detail::require_regular_file(path);
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw_input_error(path, "cannot open for reading");
-  std::error_code ec;
-  const auto size = std::filesystem::file_size(path, ec);
-  if (ec) throw_input_error(path, "cannot read file size: " + ec.message());
-  Bytes bytes(size);
-  in.read(reinterpret_cast<char*>(bytes.data()), static_cast<std::streamsize>(size));
-  if (static_cast<std::uintmax_t>(in.gcount()) != size) throw_input_error(path, "read failed");
-  return bytes;
-}
-
 // Calls sink(pages, n) with runs of finished pages (CRC in place) built from the logical bytes.
 template <typename Sink>
 void for_each_page_run(const std::uint8_t* logical, std::size_t size, Sink&& sink) {
@@ -183,7 +170,7 @@ void seal_page(std::uint8_t* page) { store_be32(page + kPagePayload, crc32c(page
 LogicalFile load_logical_file(const std::filesystem::path& path) {
   LogicalFile file;
   file.path = path;
-  file.bytes = read_file_bytes(path);
+  file.bytes = io_detail::read_file_into<Bytes>(path);
   const std::uint64_t size = file.bytes.size();
   std::uint8_t* data = file.bytes.data();
   if (size < kHeaderSize)

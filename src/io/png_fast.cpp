@@ -104,21 +104,7 @@ void check_image_budget(const std::filesystem::path& path, std::uint64_t width,
 }
 
 std::vector<std::uint8_t> read_whole_file(const std::filesystem::path& path) {
-  io_detail::require_regular_file(path);
-  std::FILE* f = std::fopen(path.c_str(), "rb");
-  if (!f) throw_input_error(path, std::string("cannot open: ") + std::strerror(errno));
-  std::vector<std::uint8_t> bytes;
-  std::error_code ec;
-  const auto expected = std::filesystem::file_size(path, ec);
-  if (!ec) bytes.reserve(static_cast<std::size_t>(expected));
-  std::uint8_t buffer[1 << 16];
-  std::size_t n;
-  while ((n = std::fread(buffer, 1, sizeof buffer, f)) > 0)
-    bytes.insert(bytes.end(), buffer, buffer + n);
-  const bool failed = std::ferror(f) != 0;
-  std::fclose(f);
-  if (failed) throw_input_error(path, "read error");
-  return bytes;
+  return io_detail::read_file_into<std::vector<std::uint8_t>>(path);
 }
 
 bool decode_png_fast(const std::filesystem::path& path, const std::vector<std::uint8_t>& bytes,

@@ -67,17 +67,19 @@ void require_regular_file(const std::filesystem::path& path) {
                             "reading it could block or never end");
 }
 
-std::string read_whole_file(const std::filesystem::path& path) {
+std::size_t readable_file_size(const std::filesystem::path& path) {
   require_regular_file(path);
-  std::ifstream in(path, std::ios::binary);  // read-only
-  if (!in) throw_input_error(path, "cannot open for reading");
   std::error_code ec;
   const auto size = std::filesystem::file_size(path, ec);
   if (ec) throw_input_error(path, "cannot read file size: " + ec.message());
-  std::string data(size, '\0');
-  in.read(data.data(), static_cast<std::streamsize>(size));
-  if (static_cast<std::uintmax_t>(in.gcount()) != size) throw_input_error(path, "read failed");
-  return data;
+  return static_cast<std::size_t>(size);
+}
+
+void read_exact(const std::filesystem::path& path, char* data, std::size_t size) {
+  std::ifstream in(path, std::ios::binary);  // read-only
+  if (!in) throw_input_error(path, "cannot open for reading");
+  in.read(data, static_cast<std::streamsize>(size));
+  if (static_cast<std::size_t>(in.gcount()) != size) throw_input_error(path, "read failed");
 }
 
 DataLines::DataLines(const std::filesystem::path& path, bool numeric_data)

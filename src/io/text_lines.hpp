@@ -22,8 +22,22 @@ std::optional<std::int64_t> parse_integer(std::string_view token);
 // FIFO or a device named in a list would block the reader or feed it without end, a folder
 // would fail later with a stranger message. InputError naming the path otherwise.
 void require_regular_file(const std::filesystem::path& path);
-// The whole file, bytes as they are; InputError naming it when it cannot be read.
-std::string read_whole_file(const std::filesystem::path& path);
+// The one file reader: the whole file, bytes as they are, into a contiguous container of
+// one-byte elements (std::string for text; byte vectors, any allocator, for binary formats);
+// InputError naming the file when it cannot be read.
+std::size_t readable_file_size(const std::filesystem::path& path);  // checks it is regular
+void read_exact(const std::filesystem::path& path, char* data, std::size_t size);
+template <typename Bytes>
+Bytes read_file_into(const std::filesystem::path& path) {
+  static_assert(sizeof(typename Bytes::value_type) == 1);
+  Bytes data;
+  data.resize(readable_file_size(path));
+  read_exact(path, reinterpret_cast<char*>(data.data()), data.size());
+  return data;
+}
+inline std::string read_whole_file(const std::filesystem::path& path) {
+  return read_file_into<std::string>(path);
+}
 inline std::string read_text_file(const std::filesystem::path& path) { return read_whole_file(path); }
 
 // Walks the data lines of a text table. Blank lines and '#' comments are skipped anywhere;
