@@ -97,29 +97,6 @@ bench::Workload seven_scenes_workload() {
   return w;
 }
 
-nlohmann::json trajectory_json(const locard::Trajectory& t) {
-  nlohmann::json out = nlohmann::json::array();
-  for (const auto& p : t) {
-    nlohmann::json row = {p.frame_index};
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) row.push_back(p.T_world_camera.matrix()(r, c));
-    out.push_back(std::move(row));
-  }
-  return out;
-}
-
-locard::Trajectory trajectory_from_json(const nlohmann::json& rows) {
-  locard::Trajectory t;
-  for (const auto& row : rows) {
-    locard::StampedPose p;
-    p.frame_index = row.at(0).get<std::int64_t>();
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) p.T_world_camera.matrix()(r, c) = row.at(1 + 4 * r + c).get<double>();
-    t.push_back(p);
-  }
-  return t;
-}
-
 nlohmann::json locard_align(const bench::Workload& w) {
   const locard::RgbdSequence& seq = seven_scenes();
   locard::AlignmentOptions o = locard_defaults();
@@ -128,7 +105,7 @@ nlohmann::json locard_align(const bench::Workload& w) {
   const locard::AlignmentResult r = locard::align_sequence(seq, o);
   std::size_t loops = 0;
   for (const auto& c : r.loops) loops += c.accepted;
-  return {{"trajectory", trajectory_json(r.trajectory(0))}, {"loop_edges", loops},
+  return {{"trajectory", bench::trajectory_rows(r.trajectory(0))}, {"loop_edges", loops},
           {"frames", r.frames.size()}};
 }
 
@@ -137,7 +114,7 @@ void report_seven_scenes(const bench::Comparison& c) {
   for (const auto& side : c.sides()) {
     const bench::SideRun* run = c.run_of(side->name());
     if (!run) continue;
-    const locard::Trajectory est = trajectory_from_json(run->output.at("trajectory"));
+    const locard::Trajectory est = bench::trajectory_from_rows(run->output.at("trajectory"));
     fmt::print("  {:<8} ATE {:6.1f} mm, {}/{} frames posed, {} loop edges kept\n", run->side,
                est.size() >= 3 ? 1000.0 * ate_by_index(seq.ground_truth, est) : -1.0,
                est.size(), seq.frames.size(), run->output.value("loop_edges", 0));

@@ -136,14 +136,6 @@ bench::Workload prepare() {
   return w;
 }
 
-json pose_row(std::int64_t frame_index, const locard::Isometry3d& T) {
-  json row = json::array({frame_index});
-  const Eigen::Matrix4d M = T.matrix();
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) row.push_back(M(r, c));
-  return row;
-}
-
 // One `locard reconstruct DATA -o CASE --no-pdf` (plus --frames N for a subset).
 json run_locard(const bench::Workload& w) {
   static int pass = 0;
@@ -160,16 +152,17 @@ json run_locard(const bench::Workload& w) {
   // The trajectory the case holds (TUM, T_world_camera), back to frame indices by timestamp.
   std::map<double, std::int64_t> index_of;
   for (const auto& f : seq.frames) index_of.emplace(f.timestamp, f.frame_index);
-  json trajectory = json::array();
-  for (const locard::StampedPose& pose :
+  locard::Trajectory trajectory;
+  for (locard::StampedPose pose :
        locard::read_tum_trajectory(case_dir / "alignment" / "trajectory.txt")) {
     auto it = index_of.lower_bound(pose.timestamp - 1e-4);
     if (it == index_of.end() || std::abs(it->first - pose.timestamp) > 1e-4) continue;
-    trajectory.push_back(pose_row(it->second, pose.T_world_camera));
+    pose.frame_index = it->second;
+    trajectory.push_back(pose);
   }
   json stages = json::array();  // in the order the stages ran
   for (const auto& [name, seconds] : s.stage_seconds) stages.push_back({name, seconds});
-  return {{"trajectory", trajectory},
+  return {{"trajectory", bench::trajectory_rows(trajectory)},
           {"frames", s.frames},
           {"registered", s.registered},
           {"usable", s.usable},
@@ -178,21 +171,6 @@ json run_locard(const bench::Workload& w) {
           {"vertices", s.vertices},
           {"triangles", s.triangles},
           {"stage_seconds", stages}};
-}
-
-locard::Trajectory trajectory_of(const json& output) {
-  locard::Trajectory t;
-  for (const json& row : output.value("trajectory", json::array())) {
-    if (row.size() != 17) continue;
-    locard::StampedPose p;
-    p.frame_index = row[0].get<std::int64_t>();
-    Eigen::Matrix4d M;
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) M(r, c) = row[1 + 4 * r + c].get<double>();
-    p.T_world_camera.matrix() = M;
-    t.push_back(p);
-  }
-  return t;
 }
 
 // Closest point on triangle abc to p (Ericson, Real-Time Collision Detection, 5.1.5).
@@ -323,7 +301,7 @@ void report(const bench::Comparison& c) {
     const bench::SideRun* run = c.run_of(side->name());
     if (!run) continue;
     Scored s{side->name(), run, std::nullopt, 0};
-    const locard::Trajectory t = trajectory_of(run->output);
+    const locard::Trajectory t = bench::trajectory_from_rows(run->output.value("trajectory", json::array()));
     s.posed = t.size();
     try {
       locard::AssociationOptions a;
@@ -382,7 +360,7 @@ void report(const bench::Comparison& c) {
              total, kOracleVoxel, kOracleTruncation, kOracleMaxDepth, oracle.vertex_count());
   for (const Scored& s : scored) {
     const std::string path = s.run->output.value("mesh", std::string());
-    const auto S = camera_alignment(reference, trajectory_of(s.run->output));
+    const auto S = camera_alignment(reference, bench::trajectory_from_rows(s.run->output.value("trajectory", json::array())));
     if (!S || path.empty() || !fs::exists(path)) {
       fmt::print("  {:<8} mesh not scored ({})\n", s.side, path.empty() ? "no mesh" : path);
       continue;

@@ -215,20 +215,6 @@ const Data& frames() {
 
 // --- the one evaluator ---------------------------------------------------------------------------
 
-Isometry3d from_row_major(const json& values) {
-  Isometry3d T = Isometry3d::Identity();
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) T.matrix()(r, c) = values.at(4 * r + c).get<double>();
-  return T;
-}
-
-json row_major(const Isometry3d& T) {
-  json out = json::array();
-  for (int r = 0; r < 4; ++r)
-    for (int c = 0; c < 4; ++c) out.push_back(T.matrix()(r, c));
-  return out;
-}
-
 // A side's transforms, or nothing when its output does not hold one per expected run.
 std::optional<std::vector<Isometry3d>> transforms_of(const bench::SideRun& run,
                                                      std::size_t expected) {
@@ -239,7 +225,7 @@ std::optional<std::vector<Isometry3d>> transforms_of(const bench::SideRun& run,
     return std::nullopt;
   }
   std::vector<Isometry3d> out;
-  for (const json& T : t) out.push_back(from_row_major(T));
+  for (const json& T : t) out.push_back(bench::from_row_major(T));
   return out;
 }
 
@@ -311,7 +297,7 @@ json locard_ransac_pass(const bench::Workload& w, Matches&& matches) {
       const auto& putative = matches(p);
       const locard::RansacResult r =
           locard::ransac_registration(p.source->cloud, p.target->cloud, putative, o);
-      transforms.push_back(row_major(r.T_target_source));
+      transforms.push_back(bench::row_major(r.T_target_source));
       hypotheses.push_back(r.hypotheses);
       correspondences.push_back(putative.size());
     }
@@ -511,7 +497,7 @@ void add_icp_comparison() {
             for (const Pair& pair : frames().pairs) {
               const locard::IcpResult r =
                   locard::icp(pair.source->cloud, pair.target->cloud, Isometry3d::Identity(), o);
-              transforms.push_back(row_major(r.T_target_source));
+              transforms.push_back(bench::row_major(r.T_target_source));
               iterations.push_back(r.iterations);
             }
             return json{{"transforms", transforms}, {"iterations", iterations}};

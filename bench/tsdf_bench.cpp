@@ -120,11 +120,8 @@ bench::Workload tsdf_workload() {
   nlohmann::json frames = nlohmann::json::array();
   for (std::size_t i = 0; i < seq.frames.size(); i += frame_step()) {
     const auto& e = seq.frames[i];
-    nlohmann::json pose = nlohmann::json::array();
-    for (int r = 0; r < 4; ++r)
-      for (int c = 0; c < 4; ++c) pose.push_back(e.T_world_camera->matrix()(r, c));
     frames.push_back({{"color", e.color_path.string()}, {"depth", e.depth_path.string()},
-                      {"T_world_camera", pose}});
+                      {"T_world_camera", bench::row_major(*e.T_world_camera)}});
   }
   w.inputs = {{"frames", frames},
               {"intrinsics",

@@ -186,6 +186,43 @@ void register_benchmarks() {
 
 }  // namespace
 
+nlohmann::json row_major(const Isometry3d& T) {
+  nlohmann::json out = nlohmann::json::array();
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) out.push_back(T.matrix()(r, c));
+  return out;
+}
+
+Isometry3d from_row_major(const nlohmann::json& values, std::size_t offset) {
+  Isometry3d T = Isometry3d::Identity();
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c)
+      T.matrix()(r, c) = values.at(offset + static_cast<std::size_t>(4 * r + c)).get<double>();
+  return T;
+}
+
+nlohmann::json trajectory_rows(const Trajectory& trajectory) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (const StampedPose& p : trajectory) {
+    nlohmann::json row = {p.frame_index};
+    for (const auto& v : row_major(p.T_world_camera)) row.push_back(v);
+    rows.push_back(std::move(row));
+  }
+  return rows;
+}
+
+Trajectory trajectory_from_rows(const nlohmann::json& rows) {
+  Trajectory t;
+  for (const nlohmann::json& row : rows) {
+    if (row.size() != 17) continue;
+    StampedPose p;
+    p.frame_index = row[0].get<std::int64_t>();
+    p.T_world_camera = from_row_major(row, 1);
+    t.push_back(p);
+  }
+  return t;
+}
+
 double median(std::vector<double> values) {
   if (values.empty()) return 0.0;
   std::sort(values.begin(), values.end());

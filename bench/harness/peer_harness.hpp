@@ -16,6 +16,8 @@
 // quality lines.
 //
 // Model: small_gicp's bench/ (one driver, the same loop for every library).
+#include <locard/core/pose.hpp>
+
 #include <nlohmann/json.hpp>
 
 #include <filesystem>
@@ -124,6 +126,13 @@ int run_main(int argc, char** argv);
 
 // A scratch folder for one benchmark's inputs (removed by run_main at exit).
 std::filesystem::path work_folder(const std::string& bench_name);
+
+// Poses between the sides: 4x4 row-major, 16 numbers (numpy's reshape(-1) on the peers' side);
+// a trajectory is rows [frame_index, 16 numbers]. Rows of another length are skipped.
+nlohmann::json row_major(const Isometry3d& T);
+Isometry3d from_row_major(const nlohmann::json& values, std::size_t offset = 0);
+nlohmann::json trajectory_rows(const Trajectory& trajectory);
+Trajectory trajectory_from_rows(const nlohmann::json& rows);
 
 // Median of a list of seconds (0 when empty).
 double median(std::vector<double> values);
