@@ -17,13 +17,19 @@
 // normal, all in the world frame, centred on the views' mean camera centre (so a rotation's
 // lever is the room's, not the world origin's). xi_i = (omega, v) is a left perturbation of
 // view i about that centre, linearised as p -> p + omega x p + v, which gives the Jacobians
-//   d r / d xi_i = [ (p x n)^T  n^T ],   d r / d xi_j = -[ (q x n)^T  n^T ].
+//   d r / d xi_i = [ (q x n)^T  n^T ],   d r / d xi_j = -[ (q x n)^T  n^T ],
+// view i's with its lever at q rather than p (|p - q| is within the gate): p's depth noise lies along
+// its ray, partly along the surface, and is in r too, so a lever through p would make
+// E[J r] a torque on view i at the true poses - sigma^2 (n . u)(u x n) a correspondence, the
+// same way in every view's own frame, which the pairs barely resist (a common tilt of the
+// views on the head). With one lever the two views get opposite torques from q's noise and the
+// pair's two directions cancel them (docs/benchmarks.md, Kinect v1 room 44).
 // w_k is Tukey's weight (scale half a voxel). A residual only pushes along its normal, so a
 // wall pair pins the wall's normal and nothing else: no false constraint along the slide.
 // Colour (where it is registered to depth) pins the slide where the wall is textured, as in
 // coloured ICP (Park et al. 2017, color_gradient.hpp): q's intensity extended over its
 // tangent plane by its gradient d_q, C_q(x) = C(q) + d_q . (x - q), gives a second residual
-//   r_C = C(q) + d . (p - q) - C(p),   d r_C / d xi_i = [ (p x d)^T  d^T ] = -d r_C / d xi_j
+//   r_C = C(q) + d . (p - q) - C(p),   d r_C / d xi_i = [ (q x d)^T  d^T ] = -d r_C / d xi_j
 // (d in the world frame, tangent to the surface: it pushes along the wall, never off it),
 // weighted (1 - lambda) / lambda against the geometric residual with Park's lambda = 0.968 and
 // by its own Tukey weight (scale kColorTukey: a highlight or a colour edge seen from another
@@ -224,16 +230,16 @@ std::size_t accumulate_pair(const std::vector<View>& views, const std::vector<Is
       const double w = geometric.weight(r);
       if (w <= 0.0) continue;
       // World frame, centred.
-      const Eigen::Vector3d p = poses[b] * p_b - centre;
       const Eigen::Vector3d q = poses[b] * q_b - centre;
-      add_residual(block_a, block_b, p, q, R_b * n_b, r, w, H, g);
+      // Both levers at q (above).
+      add_residual(block_a, block_b, q, q, R_b * n_b, r, w, H, g);
       ++count;
       if (!with_colour) continue;
       const Eigen::Vector3d d_b = views[b].gradient[hit.index].cast<double>();
       const double r_c = views[b].intensity[hit.index] + d_b.dot(p_b - q_b) -
                          views[a].intensity[k];
       const double w_c = w * kColorTermWeight * colour.weight(r_c);
-      if (w_c > 0.0) add_residual(block_a, block_b, p, p, R_b * d_b, r_c, w_c, H, g);
+      if (w_c > 0.0) add_residual(block_a, block_b, q, q, R_b * d_b, r_c, w_c, H, g);
     }
   }
   H.triangularView<Eigen::Lower>() = H.transpose();
