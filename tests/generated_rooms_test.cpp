@@ -15,6 +15,7 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <tuple>
@@ -80,6 +81,44 @@ TEST_P(GeneratedRoom, NoWrongViewIsVerified) {
   // The exit status follows the share: what the CLI would report.
   EXPECT_EQ(r.enough_trusted(), static_cast<double>(j.verified) >=
                                     o.min_verified_share * static_cast<double>(r.usable_frames()));
+}
+
+// Generated room 75 as `locard scan-sim --random 75` draws it: Kinect v2, noise-textured walls,
+// one ring of 43 views, the tripod 0.8 m from two walls. Past view 5 tracking meets a near bare
+// wall whose data do not fix the slide along it (the noise texture's gradients only seem to);
+// a slide the light prior let the data decide was kept while it stayed within 2 cm of the
+// firm prior's, and every later view's prior started from it: tracked views walked 94 mm off,
+// 35 of 43 were flagged and the 8 verified ones stood 4.7 mm ATE from the truth. A slide the
+// view's own points do not fix is now held by the tripod whatever its size.
+TEST(GeneratedRoomTracking, ASlideAlongABareWallIsNotCarriedAlongTheTurn) {
+  const sim::Scene scene = sim::random_scene(75);
+  ASSERT_EQ(scene.scanner.views, 43) << "the draw of seed 75 changed: " << sim::random_scene_summary(scene);
+  const fs::path folder = test::scratch_dir() / "generated-room-75";
+  sim::write_simulated_scan(scene, folder);
+  const RgbdSequence seq = open_rgbd_sequence(folder);
+  const AlignmentResult r = align_sequence(seq, default_alignment_options(seq.traits));
+  std::vector<Isometry3d> tracked, truth;
+  for (const FrameAlignment& f : r.frames)
+    if (f.T_world_camera_icp) {
+      tracked.push_back(*f.T_world_camera_icp);
+      truth.push_back(seq.ground_truth[f.sequence_index].T_world_camera);
+    }
+  double worst_tracked_m = 0.0;
+  for (const auto& [deg, m] : test::errors_after_fit(tracked, truth)) worst_tracked_m = std::max(worst_tracked_m, m);
+  EXPECT_LT(worst_tracked_m, 0.05) << "tracking carried a slide along the turn";  // was 94 mm
+  const Judgement j = judge(seq, r);
+  EXPECT_EQ(j.silent, 0u);
+  EXPECT_GE(j.verified, 16u);  // was 8 of 43
+  EXPECT_LT(j.worst_m, 0.01);
+  std::vector<Isometry3d> verified, verified_truth;
+  for (const FrameAlignment& f : r.frames)
+    if (f.trusted()) {
+      verified.push_back(*f.T_world_camera_final);
+      verified_truth.push_back(seq.ground_truth[f.sequence_index].T_world_camera);
+    }
+  double sum2 = 0.0;
+  for (const auto& [deg, m] : test::errors_after_fit(verified, verified_truth)) sum2 += m * m;
+  EXPECT_LT(std::sqrt(sum2 / static_cast<double>(verified.size())), 0.003);  // was 4.7 mm
 }
 
 std::string room_name(const ::testing::TestParamInfo<RoomKind>& room) {

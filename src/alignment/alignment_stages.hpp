@@ -74,6 +74,12 @@ void check_views(AlignmentState& state);
 // frame), sorted, each once (view_verification.cpp).
 std::vector<std::uint64_t> world_cells(const PointCloud& cloud, const Isometry3d& T,
                                        double cell_size);
+// How firmly frame i's own points fix a move of its camera along `direction` (camera frame):
+// the mean of (n . d)^2 over its points, and where that is below the check's min_constraint
+// and colour is registered to depth, the significant colour gradients' share as the view check
+// counts it (view_verification.cpp).
+double translation_constraint(const AlignmentState& s, std::size_t i,
+                              const Eigen::Vector3d& direction);
 // Smallest eigenvalue of a camera-frame cloud's per-point normal matrix (ViewCheckOptions'
 // "constraint"): rotation about the camera centre only, or all six degrees of freedom.
 double pose_constraint(const PointCloud& cloud, bool rotation_only);

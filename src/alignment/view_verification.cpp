@@ -114,6 +114,21 @@ ViewInformation view_information(const AlignmentState& s, std::size_t i) {
   return v;
 }
 
+}  // namespace
+
+double translation_constraint(const AlignmentState& s, std::size_t i,
+                              const Eigen::Vector3d& direction) {
+  const PointCloud& cloud = s.prepared[i].cloud;
+  const Eigen::Vector3d d = direction.normalized();
+  const double geometry = d.dot(normal_information(cloud).bottomRightCorner<3, 3>() * d);
+  if (geometry >= s.options.view_check.min_constraint || !s.options.refinement_color)
+    return geometry;
+  return geometry +
+         d.dot(color_information(cloud, s.options.voxel_size).bottomRightCorner<3, 3>() * d);
+}
+
+namespace {
+
 // One world voxel of the multi-view model: sums for the centroid and normal, and which views
 // saw it (a 64-bit Bloom mask of view ids: "contains" may say yes for another view with the
 // same id mod 64, which only makes the leave-one-out support smaller, never larger).
