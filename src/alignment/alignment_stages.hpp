@@ -29,6 +29,10 @@ struct PreparedFrame {
   PointCloud cloud;   // camera frame, voxel grid, normals towards the sensor, colours
   PointCloud coarse;  // the same at twice the voxel size (first ICP level)
   std::string unusable;  // non-empty: why this frame cannot be used
+  // The colour term's information over the cloud (view_verification.cpp), made the first time
+  // tracking or the view check asks for it: a gradient fit over the view, not worth repeating.
+  // Filled by one thread per frame (tracking runs frame by frame, the check a task per view).
+  mutable std::optional<Eigen::Matrix<double, 6, 6>> color_information;
 };
 
 // A registration target at two resolutions (the coarse one is made once per model update).

@@ -56,7 +56,7 @@ Matrix6d normal_information(const PointCloud& cloud) {
 // must not pass for a texture that fixes the slide.
 constexpr double kSignificantGradient = 3.0;
 
-Matrix6d color_information(const PointCloud& cloud, double voxel_size) {
+Matrix6d compute_color_information(const PointCloud& cloud, double voxel_size) {
   Matrix6d A = Matrix6d::Zero();
   if (!cloud.has_normals() || !cloud.has_colors() || cloud.empty()) return A;
   const KdTree tree(cloud.positions);
@@ -74,6 +74,14 @@ Matrix6d color_information(const PointCloud& cloud, double voxel_size) {
   }
   A /= static_cast<double>(cloud.size());
   return A;
+}
+
+// The same, made once per frame (PreparedFrame::color_information).
+const Matrix6d& color_information(const AlignmentState& s, std::size_t i) {
+  const PreparedFrame& frame = s.prepared[i];
+  if (!frame.color_information)
+    frame.color_information = compute_color_information(frame.cloud, s.options.voxel_size);
+  return *frame.color_information;
 }
 
 // Its smallest eigenvalue: over the rotation only (tripod) or all six directions (video).
@@ -110,7 +118,7 @@ ViewInformation view_information(const AlignmentState& s, std::size_t i) {
   v.geometry = normal_information(cloud);
   if (s.options.refinement_color &&
       weakest_direction(v.geometry, rotation_only(s.options)) < min_constraint(s.options))
-    v.color = color_information(cloud, s.options.voxel_size);
+    v.color = color_information(s, i);
   return v;
 }
 
@@ -123,8 +131,7 @@ double translation_constraint(const AlignmentState& s, std::size_t i,
   const double geometry = d.dot(normal_information(cloud).bottomRightCorner<3, 3>() * d);
   if (geometry >= s.options.view_check.min_constraint || !s.options.refinement_color)
     return geometry;
-  return geometry +
-         d.dot(color_information(cloud, s.options.voxel_size).bottomRightCorner<3, 3>() * d);
+  return geometry + d.dot(color_information(s, i).bottomRightCorner<3, 3>() * d);
 }
 
 namespace {
