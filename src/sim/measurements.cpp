@@ -10,8 +10,10 @@
 #include <Eigen/Geometry>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <map>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -197,82 +199,120 @@ std::optional<Measurement> seen_room_height(const Scene& scene, const ScanVisibi
   return std::nullopt;
 }
 
-// Candidate lines on a box's or cylinder's surface, longest first (stable among equals).
-std::vector<Measurement> extent_candidates(const SceneObject& o) {
+// A box's twelve edges, longest first (stable among equals).
+std::vector<Measurement> box_edges(const SceneObject& o) {
+  const Eigen::Matrix3d R =
+      Eigen::AngleAxisd(o.yaw_deg * std::numbers::pi / 180.0, Eigen::Vector3d::UnitZ())
+          .toRotationMatrix();
+  auto corner = [&](int bits) {
+    Eigen::Vector3d local;
+    for (int i = 0; i < 3; ++i) local[i] = ((bits >> i) & 1 ? 0.5 : -0.5) * o.size[i];
+    return Eigen::Vector3d(o.center + R * local);
+  };
   std::vector<Measurement> lines;
-  if (o.shape == ShapeKind::Box) {
-    const Eigen::Matrix3d R =
-        Eigen::AngleAxisd(o.yaw_deg * std::numbers::pi / 180.0, Eigen::Vector3d::UnitZ())
-            .toRotationMatrix();
-    auto corner = [&](int bits) {
-      Eigen::Vector3d local;
-      for (int i = 0; i < 3; ++i) local[i] = ((bits >> i) & 1 ? 0.5 : -0.5) * o.size[i];
-      return Eigen::Vector3d(o.center + R * local);
-    };
-    for (int bits = 0; bits < 8; ++bits)
-      for (int axis = 0; axis < 3; ++axis)
-        if (!((bits >> axis) & 1)) {
-          Measurement m;
-          m.a = corner(bits);
-          m.b = corner(bits | (1 << axis));
-          lines.push_back(m);
-        }
-  } else if (o.shape == ShapeKind::Cylinder) {
-    const int n = std::max(o.segments, 3);
-    auto rim = [&](int k, double z) {
-      const double phi = 2.0 * std::numbers::pi * k / n;
-      return Eigen::Vector3d(o.center.x() + o.radius * std::cos(phi),
-                             o.center.y() + o.radius * std::sin(phi), z);
-    };
-    const double z0 = o.center.z() - 0.5 * o.height, z1 = o.center.z() + 0.5 * o.height;
-    for (int k = 0; k < n; ++k) {
-      Measurement height;
-      height.a = rim(k, z0);
-      height.b = rim(k, z1);
-      lines.push_back(height);
-      if (k < n / 2) {
-        Measurement diameter;
-        diameter.a = rim(k, z1);
-        diameter.b = rim(k + n / 2, z1);
-        lines.push_back(diameter);
+  for (int bits = 0; bits < 8; ++bits)
+    for (int axis = 0; axis < 3; ++axis)
+      if (!((bits >> axis) & 1)) {
+        Measurement m;
+        m.a = corner(bits);
+        m.b = corner(bits | (1 << axis));
+        lines.push_back(m);
       }
-    }
-  }
   std::stable_sort(lines.begin(), lines.end(), [](const Measurement& x, const Measurement& y) {
     return x.distance() > y.distance();
   });
   return lines;
 }
 
-std::optional<Measurement> seen_object_extent(const SceneObject& o, const Eigen::Vector3d& scanner,
-                                              const ScanVisibility& vis) {
-  Measurement largest;
+// A mesh's feature edges, longest first: edges where its surface folds by at least
+// kCreaseDeg, or where it ends - the edges a tape is laid along and whose ends a person finds
+// by touch. A smooth surface (a ball's facets fold by about 20 degrees) has none: its size is
+// not a tape measurement. Edges are keyed by their end points' positions, as a mesh built of
+// pieces repeats vertices.
+constexpr double kCreaseDeg = 45.0;
+
+std::vector<Measurement> crease_edges(const TriangleMesh& mesh) {
+  using Key = std::array<float, 6>;
+  std::map<Key, std::vector<Eigen::Vector3f>> normals;
+  std::map<Key, std::pair<Eigen::Vector3f, Eigen::Vector3f>> ends;
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3f& p0 = mesh.vertices[t[0]];
+    const Eigen::Vector3f n =
+        (mesh.vertices[t[1]] - p0).cross(mesh.vertices[t[2]] - p0).normalized();
+    for (int k = 0; k < 3; ++k) {
+      Eigen::Vector3f a = mesh.vertices[t[k]], b = mesh.vertices[t[(k + 1) % 3]];
+      if (std::lexicographical_compare(b.data(), b.data() + 3, a.data(), a.data() + 3))
+        std::swap(a, b);
+      const Key key{a.x(), a.y(), a.z(), b.x(), b.y(), b.z()};
+      normals[key].push_back(n);
+      ends[key] = {a, b};
+    }
+  }
+  const float cos_crease = static_cast<float>(std::cos(kCreaseDeg * std::numbers::pi / 180.0));
+  std::vector<Measurement> out;
+  for (const auto& [key, ns] : normals) {
+    bool crease = ns.size() == 1;
+    for (std::size_t i = 0; i < ns.size() && !crease; ++i)
+      for (std::size_t j = i + 1; j < ns.size() && !crease; ++j)
+        crease = ns[i].dot(ns[j]) < cos_crease;
+    if (!crease) continue;
+    Measurement m;
+    m.a = ends[key].first.cast<double>();
+    m.b = ends[key].second.cast<double>();
+    if (m.distance() > 1e-6) out.push_back(m);
+  }
+  std::stable_sort(out.begin(), out.end(), [](const Measurement& x, const Measurement& y) {
+    return x.distance() > y.distance();
+  });
+  return out;
+}
+
+// Cylinder heights, floor to top along the side, the line facing the scanner first: the rim's
+// points between facets are nothing a tape can hold, so a diameter across a cap is left out.
+std::vector<Measurement> cylinder_heights(const SceneObject& o, const Eigen::Vector3d& scanner) {
+  const int n = std::max(o.segments, 3);
+  const double facing = std::atan2(scanner.y() - o.center.y(), scanner.x() - o.center.x());
+  const double z0 = o.center.z() - 0.5 * o.height, z1 = o.center.z() + 0.5 * o.height;
+  std::vector<std::pair<double, Measurement>> lines;
+  for (int k = 0; k < n; ++k) {
+    const double phi = 2.0 * std::numbers::pi * k / n;
+    const Eigen::Vector2d rim(o.center.x() + o.radius * std::cos(phi),
+                              o.center.y() + o.radius * std::sin(phi));
+    Measurement m;
+    m.a = {rim.x(), rim.y(), z0};
+    m.b = {rim.x(), rim.y(), z1};
+    lines.emplace_back(std::abs(std::remainder(phi - facing, 2.0 * std::numbers::pi)), m);
+  }
+  std::stable_sort(lines.begin(), lines.end(),
+                   [](const auto& x, const auto& y) { return x.first < y.first; });
+  std::vector<Measurement> out;
+  for (const auto& [angle, m] : lines) out.push_back(m);
+  return out;
+}
+
+// What an investigator measures on an object with a tape, where the scan sees both ends: a
+// box's longest seen edge, a cylinder's height, a mesh's longest seen feature edge (none on a
+// ball).
+std::optional<Measurement> seen_object_tape_line(const SceneObject& o,
+                                                 const Eigen::Vector3d& scanner,
+                                                 const ScanVisibility& vis) {
   switch (o.shape) {
-    case ShapeKind::Box: largest = box_extent(o, scanner); break;
-    case ShapeKind::Cylinder: largest = cylinder_extent(o, scanner); break;
-    case ShapeKind::Mesh: largest = mesh_extent(o); break;
+    case ShapeKind::Box: {
+      const Measurement largest = box_extent(o, scanner);
+      if (vis.seen(largest)) return named(largest, o.name + " (longest edge)");
+      for (const Measurement& m : box_edges(o))
+        if (vis.seen(m)) return named(m, o.name + " (longest seen edge)");
+      return std::nullopt;
+    }
+    case ShapeKind::Cylinder:
+      for (const Measurement& m : cylinder_heights(o, scanner))
+        if (vis.seen(m)) return named(m, o.name + " (height)");
+      return std::nullopt;
+    case ShapeKind::Mesh:
+      for (const Measurement& m : crease_edges(object_mesh(o)))
+        if (vis.seen(m)) return named(m, o.name + " (longest seen edge)");
+      return std::nullopt;
   }
-  if (vis.seen(largest)) return named(largest, o.name + " (largest extent)");
-  if (o.shape == ShapeKind::Mesh) {
-    // Pairs of seen vertices: each vertex is tested once.
-    const TriangleMesh mesh = object_mesh(o);
-    std::vector<Eigen::Vector3d> seen;
-    for (const auto& v : mesh.vertices)
-      if (vis.seen(v.cast<double>())) seen.push_back(v.cast<double>());
-    std::optional<Measurement> best;
-    for (std::size_t i = 0; i < seen.size(); ++i)
-      for (std::size_t j = i + 1; j < seen.size(); ++j)
-        if (!best || (seen[j] - seen[i]).norm() > best->distance()) {
-          Measurement m;
-          m.a = seen[i];
-          m.b = seen[j];
-          best = m;
-        }
-    if (best && best->distance() > 1e-6) return named(*best, o.name + " (longest seen)");
-    return std::nullopt;
-  }
-  for (const Measurement& m : extent_candidates(o))
-    if (vis.seen(m)) return named(m, o.name + " (longest seen)");
   return std::nullopt;
 }
 
@@ -285,7 +325,7 @@ std::vector<Measurement> derive_seen_measurements(const Scene& scene, const Kine
   if (auto m = seen_room_span(scene, vis, 1)) out.push_back(named(*m, "Room depth"));
   if (auto m = seen_room_height(scene, vis)) out.push_back(named(*m, "Room height"));
   for (const SceneObject& o : scene.objects)
-    if (auto m = seen_object_extent(o, scene.scanner.position, vis)) out.push_back(*m);
+    if (auto m = seen_object_tape_line(o, scene.scanner.position, vis)) out.push_back(*m);
   return out;
 }
 

@@ -23,9 +23,12 @@ std::vector<Measurement> derive_measurements(const Scene& scene);
 //   "Room width", "Room depth": wall to wall along x / y, on the first line through or near the
 //     tripod, at a height one of the pitch rings looks at, whose ends are seen;
 //   "Room height": floor to ceiling at the first spot around the tripod where both are seen;
-//   "<name> (largest extent)": the object's longest edge (box), height or cap diameter
-//     (cylinder) or the pair derive_measurements takes (mesh), when seen; otherwise
-//     "<name> (longest seen)": the longest box edge / cylinder line / pair of mesh vertices seen.
+//   one line per object that an investigator lays a tape along, with ends found by touch:
+//     "<name> (longest edge)" a box's longest edge nearest the tripod, else "<name> (longest
+//     seen edge)" its longest seen edge; "<name> (height)" a cylinder's side, floor to top, the
+//     line facing the tripod first; "<name> (longest seen edge)" a mesh's longest seen feature
+//     edge (its surface folds there by 45 degrees or more, or ends). A smooth mesh (a ball) and
+//     a cylinder's diameter (its ends on the rim, which nothing holds) give none.
 // A measurement with no seen candidate is left out.
 std::vector<Measurement> derive_seen_measurements(const Scene& scene, const KinectModel& model);
 
