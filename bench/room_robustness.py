@@ -135,7 +135,7 @@ REASON_KINDS = [('geometry does not fix', 'constraint'), ('other views place it'
                 ("tripod's centre", 'tripod-offset'), ('pan axis', 'off-axis'),
                 ("tripod's head", 'tripod-residual'), ('block of', 'block'),
                 ('does not register', 'no-icp'), ('no other view', 'alone'),
-                ('piece of its own', 'alone')]
+                ('piece of its own', 'alone'), ('where its camera stands', 'slide')]
 
 
 def reason_kinds(reason):

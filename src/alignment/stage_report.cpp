@@ -188,6 +188,8 @@ void write_stage_report_json(const std::filesystem::path& path, const AlignmentR
                     {"constraint", c.constraint},  {"reason", c.reason}};
       if (std::isfinite(c.off_axis_deg)) e["check"]["off_axis_deg"] = c.off_axis_deg;
       if (c.fixed_by_color) e["check"]["fixed_by_color"] = true;
+      e["check"]["slide_constraint"] = c.slide_constraint;
+      if (std::isfinite(c.tripod_play_m)) e["check"]["tripod_play_m"] = c.tripod_play_m;
       if (std::isfinite(c.tripod_residual_m))
         e["check"]["tripod_residual_m"] = c.tripod_residual_m;
     } else {

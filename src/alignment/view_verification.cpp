@@ -107,6 +107,34 @@ double min_constraint(const AlignmentOptions& o) {
 // What a view's own points say of its pose, computed once per check (the rounds reuse it): the
 // geometric information and, where colour is registered to depth and the geometry leaves a
 // direction free, the colour term's (it costs a gradient fit over the view).
+// The weakest direction of the translation alone: geometry, and the colour term's significant
+// gradients where the geometry leaves the slide free (translation_constraint's rule).
+// Its eigenvalues, smallest first.
+// Its eigen-decomposition (camera frame), smallest first.
+struct SlideConstraint {
+  Eigen::Vector3d eigenvalues = Eigen::Vector3d::Zero();
+  Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  // columns
+  int free_axes(double needed) const {
+    return static_cast<int>((eigenvalues.array() < needed).count());
+  }
+  // The length of v's part along the free axes.
+  double along_free(const Eigen::Vector3d& v, double needed) const {
+    const int k = free_axes(needed);
+    return (axes.leftCols(k).transpose() * v).norm();
+  }
+};
+
+SlideConstraint slide_constraint(const AlignmentState& s, std::size_t i, const Matrix6d& geometry) {
+  const auto translation = [](const Matrix6d& A) {
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> es(A.bottomRightCorner<3, 3>());
+    return SlideConstraint{es.eigenvalues(), es.eigenvectors()};
+  };
+  const SlideConstraint geometric = translation(geometry);
+  if (geometric.eigenvalues(0) >= s.options.view_check.min_constraint || !s.options.refinement_color)
+    return geometric;
+  return translation(geometry + color_information(s, i));
+}
+
 struct ViewInformation {
   Matrix6d geometry = Matrix6d::Zero();
   std::optional<Matrix6d> color;
@@ -264,6 +292,8 @@ double free_space_share(const AlignmentState& s, std::size_t i, const OthersMode
 // from the nodal model (tripod_fit.hpp); NaN where the views make no tripod fit.
 struct TripodConsistency {
   std::vector<double> off_axis_deg, residual_m;
+  // Per view, its camera centre less the nodal model's (c - P - R d), in its camera frame.
+  std::vector<Eigen::Vector3d> residual_camera;
   std::optional<Eigen::Vector3d> axis;  // the pan axis, world frame
   // The tripod's play: RMS distance from the nodal model of the views whose own surfaces fix
   // all six degrees of freedom (infinite with fewer than kPlayViews of them).
@@ -277,6 +307,7 @@ TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<
   TripodConsistency out;
   out.off_axis_deg.assign(s.n, std::numeric_limits<double>::quiet_NaN());
   out.residual_m = out.off_axis_deg;
+  out.residual_camera.assign(s.n, Eigen::Vector3d::Constant(std::numeric_limits<double>::quiet_NaN()));
   if (s.options.mode != AlignmentMode::Cumulative) return out;
   std::vector<Eigen::Matrix3d> R;
   std::vector<Isometry3d> T;
@@ -303,6 +334,8 @@ TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<
   for (std::size_t k = 0; k < views.size(); ++k) {
     out.off_axis_deg[views[k]] = fit->off_axis_deg[k];
     out.residual_m[views[k]] = nodal.residual_m[k];
+    out.residual_camera[views[k]] =
+        R[k].transpose() * (T[k].translation() - nodal.pivot) - nodal.offset;
   }
   return out;
 }
@@ -342,7 +375,8 @@ CheckBox check_box(const AlignmentState& s, std::size_t i) {
 
 ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_t i,
                      const Eigen::Vector3d& tripod_centre, double off_axis_deg,
-                     double tripod_residual_m, const std::optional<Eigen::Vector3d>& pan_axis,
+                     double tripod_residual_m, const Eigen::Vector3d& tripod_residual_camera,
+                     const std::optional<Eigen::Vector3d>& pan_axis,
                      double tripod_play_m, const ViewInformation& own, const CheckBox& box) {
   const AlignmentOptions& o = s.options;
   const ViewCheckOptions& limits = o.view_check;
@@ -380,6 +414,25 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
       std::isfinite(tripod_residual_m) && c.constraint < limits.min_constraint &&
       pan >= limits.min_constraint;
   if (held_by_tripod) c.constraint = pan;
+  // Where the camera stands, on a tripod turn: the view's own points fix it along the
+  // directions where they face a surface; along the others (a bare wall: the slide along it)
+  // nothing the check's ICP sees does. There the true centre is the nodal model's, give or
+  // take the tripod's measured play (the turn's scatter about the model, split evenly over
+  // three axes), and the estimate may stand off the model as well (weak data pulled it). Its
+  // error there is at most that offset plus 2.5 sigma of the play; the view is vouched for
+  // where this stays within half the correction a view may need (as held_by_tripod's).
+  const SlideConstraint slide = slide_constraint(s, i, information);
+  c.slide_constraint = slide.eigenvalues(0);
+  const int free_axes = rotation_only(o) ? slide.free_axes(limits.min_constraint) : 0;
+  const double slide_sigma_m =
+      tripod_play_m * std::sqrt(static_cast<double>(free_axes) / 3.0);  // inf: unmeasured
+  const double off_model_m =
+      free_axes > 0 ? slide.along_free(tripod_residual_camera, limits.min_constraint) : 0.0;
+  const double slide_bound_m = std::isfinite(off_model_m)
+                                   ? off_model_m + 2.5 * slide_sigma_m
+                                   : std::numeric_limits<double>::infinity();
+  const bool slide_held = free_axes == 0 || slide_bound_m <= 0.5 * limits.max_correction_m;
+  c.tripod_play_m = tripod_play_m;
 
   const OthersModel others = others_model(model, i, box.lo, box.hi);
 
@@ -451,6 +504,22 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
     reasons.push_back(fmt::format("its camera stands {:.0f} mm from where the tripod's head puts "
                                   "it (allowed {:.0f} mm)",
                                   1000 * c.tripod_residual_m, 1000 * limits.max_tripod_residual_m));
+  if (!slide_held && !held_by_tripod)
+    reasons.push_back(
+        std::isfinite(slide_bound_m)
+            ? fmt::format("its points do not fix where its camera stands along {} {} "
+                          "(constraint {:.4f}, need >= {:.3f}: a bare wall), and there it stands "
+                          "{:.1f} mm off the tripod's nodal model, whose play ({:.1f} mm) adds "
+                          "{:.1f} mm at 2.5 sigma (allowed {:.0f} mm in all)",
+                          free_axes, free_axes > 1 ? "axes" : "axis", c.slide_constraint,
+                          limits.min_constraint, 1000 * off_model_m, 1000 * tripod_play_m,
+                          2500 * slide_sigma_m, 500 * limits.max_correction_m)
+            : fmt::format("its points do not fix where its camera stands along {} {} "
+                          "(constraint {:.4f}, need >= {:.3f}: a bare wall), and the tripod "
+                          "cannot place it (too few views fix themselves to measure its play, "
+                          "or the views make no tripod fit)",
+                          free_axes, free_axes > 1 ? "axes" : "axis", c.slide_constraint,
+                          limits.min_constraint));
   if (c.constraint < needed)
     reasons.push_back(fmt::format("geometry does not fix its pose{} (constraint {:.4f}, need >= "
                                   "{:.3f}: a bare wall or plane)",
@@ -473,7 +542,10 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
                                       below(c.correction_deg, limits.max_correction_deg),
                                       below(c.free_space, limits.max_free_space),
                                       above(c.overlap, limits.min_overlap, 1.0),
-                                      above(c.constraint, needed, 5.0 * needed)});
+                                      above(c.constraint, needed, 5.0 * needed),
+                                      free_axes == 0 ? 1.0
+                                                     : below(slide_bound_m,
+                                                             0.5 * limits.max_correction_m)});
   c.confidence = c.verified ? std::clamp(confidence, 0.0, 1.0) : 0.0;
   return c;
 }
@@ -540,7 +612,8 @@ void check_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
       if (!due[k]) return;
       s.result.frames[views[k]].check = check_view(s, model, views[k], tripod_centre,
                                                    tripod.off_axis_deg[views[k]],
-                                                   tripod.residual_m[views[k]], tripod.axis,
+                                                   tripod.residual_m[views[k]],
+                                                   tripod.residual_camera[views[k]], tripod.axis,
                                                    tripod.play_m, information[k], boxes[k]);
     });
     std::vector<std::size_t> changed;

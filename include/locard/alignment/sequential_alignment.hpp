@@ -99,7 +99,11 @@ enum class AlignmentMode { Cumulative, Odometry };
 //    tripod instead: its constraint is the pan's, its check's ICP turns it only about the pan
 //    axis, and it must stand within 0.5 degree of its ring - allowed only where the tripod's
 //    measured play (views fixing all six directions, off the nodal model) keeps its slide
-//    within 1 cm at 2.5 sigma.
+//    within 1 cm at 2.5 sigma. Where the camera stands is judged the same way: a tripod-turn
+//    view whose own points (and colour) leave a translation free - a wall and the floor, whose
+//    meeting line it may slide along (slide_constraint below min_constraint) - is placed there
+//    by the tripod alone, which the check's ICP cannot see; it is verified only where 2.5
+//    sigma of the play along its k free axes (play * sqrt(k / 3)) stays within 1 cm.
 //  - tripod (cumulative mode, the tripod-turn scheme): the camera centre lies within
 //    max_tripod_offset_m of the median centre of all views; a view placed elsewhere is wrong
 //    whatever its overlap (a symmetric room fits itself turned by 180 degrees). And the pan
@@ -210,6 +214,10 @@ struct ViewCheck {
   double overlap = 0.0;    // share of the view's points within the gate of the others' model
   double free_space = 0.0; // share of others' surface points in its view that it sees through
   double constraint = 0.0; // smallest normalised eigenvalue of its point-to-plane matrix
+  // Smallest over the translation alone (geometry, and colour where it counts): on a tripod
+  // turn, how firmly the view's own points fix where its camera stands.
+  double slide_constraint = 0.0;
+  double tripod_play_m = std::numeric_limits<double>::quiet_NaN();  // the turn's measured play
   // Its geometry leaves a direction free and its colour's texture fixes it: the constraint
   // counts the colour term and the check's ICP is coloured (view_verification.cpp).
   bool fixed_by_color = false;
