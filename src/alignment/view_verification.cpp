@@ -404,8 +404,8 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   // head its centre. It is checked as the tripod moves it (pan free, the rest held), judged by
   // the pan's constraint, and held to the ring more tightly than a view that fixes itself.
   // Only as good as the tripod's play, then: allowed when a slide of 2.5 sigma along two free
-  // axes stays within half the correction a view may need.
-  const bool play_small = 2.5 * std::sqrt(2.0 / 3.0) * tripod_play_m <= 0.5 * limits.max_correction_m;
+  // axes stays within the bar a verified view meets (max_error_m).
+  const bool play_small = 2.5 * std::sqrt(2.0 / 3.0) * tripod_play_m <= limits.max_error_m;
   const double pan = pan_axis ? turn_constraint(information, T.linear().transpose() * *pan_axis)
                              : 0.0;
   const bool held_by_tripod =
@@ -420,7 +420,7 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   // take the tripod's measured play (the turn's scatter about the model, split evenly over
   // three axes), and the estimate may stand off the model as well (weak data pulled it). Its
   // error there is at most that offset plus 2.5 sigma of the play; the view is vouched for
-  // where this stays within half the correction a view may need (as held_by_tripod's).
+  // where this stays within the bar a verified view meets (as held_by_tripod's).
   const SlideConstraint slide = slide_constraint(s, i, information);
   c.slide_constraint = slide.eigenvalues(0);
   const int free_axes = rotation_only(o) ? slide.free_axes(limits.min_constraint) : 0;
@@ -431,7 +431,7 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   const double slide_bound_m = std::isfinite(off_model_m)
                                    ? off_model_m + 2.5 * slide_sigma_m
                                    : std::numeric_limits<double>::infinity();
-  const bool slide_held = free_axes == 0 || slide_bound_m <= 0.5 * limits.max_correction_m;
+  const bool slide_held = free_axes == 0 || slide_bound_m <= limits.max_error_m;
   c.tripod_play_m = tripod_play_m;
 
   const OthersModel others = others_model(model, i, box.lo, box.hi);
@@ -457,12 +457,19 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
     tripod.off_axis_sigma_deg = 0.1;
     icp_options.pose_prior = tripod;
   }
-  IcpResult r = icp(source, others.surface, T, icp_options);
+  // The others' model is prepared once for both passes (its kd-tree is most of a short run),
+  // except that coloured ICP's gradients are taken over twice the gate, which the fine pass
+  // halves.
+  const IcpTarget target(others.surface, icp_options);
+  IcpResult r = icp(source, target, T, icp_options);
   c.overlap = r.fitness;
   if (r.success) {
     icp_options.max_correspondence_distance = o.voxel_size;
     icp_options.convergence.max_iterations = 15;
-    const IcpResult fine = icp(source, others.surface, r.T_target_source, icp_options);
+    const IcpResult fine =
+        c.fixed_by_color
+            ? icp(source, others.surface, r.T_target_source, icp_options)
+            : icp(source, target, r.T_target_source, icp_options);
     if (fine.success) r = fine;
   }
   if (!r.success) {
@@ -477,12 +484,15 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   if (c.overlap < limits.min_overlap)
     reasons.push_back(fmt::format("overlap with the other views {:.0f} % (need >= {:.0f} %)",
                                   100 * c.overlap, 100 * limits.min_overlap));
-  if (r.success && (c.correction_m > limits.max_correction_m ||
-                    c.correction_deg > limits.max_correction_deg))
+  const double max_correction_m =
+      rotation_only(o) ? limits.max_error_m : limits.max_video_correction_m;
+  const double max_correction_deg =
+      rotation_only(o) ? limits.max_error_deg : limits.max_video_correction_deg;
+  if (r.success && (c.correction_m > max_correction_m || c.correction_deg > max_correction_deg))
     reasons.push_back(fmt::format("the other views place it {:.1f} mm / {:.2f} deg away "
                                   "(allowed {:.0f} mm / {:.1f} deg)",
                                   1000 * c.correction_m, c.correction_deg,
-                                  1000 * limits.max_correction_m, limits.max_correction_deg));
+                                  1000 * max_correction_m, max_correction_deg));
   if (c.free_space > limits.max_free_space)
     reasons.push_back(fmt::format("sees through {:.0f} % of the surfaces other views saw "
                                   "(allowed {:.0f} %)",
@@ -513,7 +523,7 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
                           "{:.1f} mm at 2.5 sigma (allowed {:.0f} mm in all)",
                           free_axes, free_axes > 1 ? "axes" : "axis", c.slide_constraint,
                           limits.min_constraint, 1000 * off_model_m, 1000 * tripod_play_m,
-                          2500 * slide_sigma_m, 500 * limits.max_correction_m)
+                          2500 * slide_sigma_m, 1000 * limits.max_error_m)
             : fmt::format("its points do not fix where its camera stands along {} {} "
                           "(constraint {:.4f}, need >= {:.3f}: a bare wall), and the tripod "
                           "cannot place it (too few views fix themselves to measure its play, "
@@ -536,16 +546,16 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
   };
   const double off_axis = std::isfinite(c.off_axis_deg) ? c.off_axis_deg : 0.0;
   const double off_tripod = std::isfinite(c.tripod_residual_m) ? c.tripod_residual_m : 0.0;
-  const double confidence = std::min({below(c.correction_m, limits.max_correction_m),
+  const double confidence = std::min({below(c.correction_m, max_correction_m),
                                       below(off_axis, limits.max_off_axis_deg),
                                       below(off_tripod, limits.max_tripod_residual_m),
-                                      below(c.correction_deg, limits.max_correction_deg),
+                                      below(c.correction_deg, max_correction_deg),
                                       below(c.free_space, limits.max_free_space),
                                       above(c.overlap, limits.min_overlap, 1.0),
                                       above(c.constraint, needed, 5.0 * needed),
                                       free_axes == 0 ? 1.0
                                                      : below(slide_bound_m,
-                                                             0.5 * limits.max_correction_m)});
+                                                             limits.max_error_m)});
   c.confidence = c.verified ? std::clamp(confidence, 0.0, 1.0) : 0.0;
   return c;
 }

@@ -80,9 +80,12 @@ enum class AlignmentMode { Cumulative, Odometry };
 // Stage 5, the self-check of every registered view against the model of the OTHER views
 // (leave-one-out, so a view cannot vouch for itself):
 //  - agreement: ICP of the view against the others' model, from its final pose; the
-//    correction it finds estimates the view's own error. Flagged above max_correction_m /
-//    max_correction_deg (between the accuracy a good view has and the error that makes a
-//    wrong model: 1 cm / 0.5 degree is a good view, 5 cm / 2 degrees a wrong one).
+//    correction it finds estimates the view's own error. On a tripod turn it is held to the
+//    accuracy a verified view vouches for, max_error_m / max_error_deg (1 cm / 0.5 degree: a
+//    view the others place 16 mm / 0.87 degree away was 19 mm off, generated room 86). On
+//    video, whose check is noisier (motion blur, rolling shutter, a model seen once), to
+//    max_video_correction_m / max_video_correction_deg (2 cm / 1 degree: between a good view
+//    and the error that makes a wrong model, 5 cm / 2 degrees).
 //  - overlap: share of the view's points within 2 voxels of the others' model.
 //  - free space: others' surface points (seen by >= 2 other views) that lie in front of the
 //    view's own depth along its rays, i.e. surfaces the view claims to see through.
@@ -99,11 +102,12 @@ enum class AlignmentMode { Cumulative, Odometry };
 //    tripod instead: its constraint is the pan's, its check's ICP turns it only about the pan
 //    axis, and it must stand within 0.5 degree of its ring - allowed only where the tripod's
 //    measured play (views fixing all six directions, off the nodal model) keeps its slide
-//    within 1 cm at 2.5 sigma. Where the camera stands is judged the same way: a tripod-turn
+//    within max_error_m at 2.5 sigma. Where the camera stands is judged the same way: a tripod-turn
 //    view whose own points (and colour) leave a translation free - a wall and the floor, whose
 //    meeting line it may slide along (slide_constraint below min_constraint) - is placed there
 //    by the tripod alone, which the check's ICP cannot see; it is verified only where 2.5
-//    sigma of the play along its k free axes (play * sqrt(k / 3)) stays within 1 cm.
+//    sigma of the play along its k free axes (play * sqrt(k / 3)), plus its offset from the
+//    nodal model along them, stays within max_error_m.
 //  - tripod (cumulative mode, the tripod-turn scheme): the camera centre lies within
 //    max_tripod_offset_m of the median centre of all views; a view placed elsewhere is wrong
 //    whatever its overlap (a symmetric room fits itself turned by 180 degrees). And the pan
@@ -124,8 +128,10 @@ enum class AlignmentMode { Cumulative, Odometry };
 //    view apart under 10 %. The largest linked block is the model (its piece becomes piece
 //    0); the views of every other block are flagged.
 struct ViewCheckOptions {
-  double max_correction_m = 0.02;
-  double max_correction_deg = 1.0;
+  double max_error_m = 0.01;    // a verified view's bar (tripod turn)
+  double max_error_deg = 0.5;
+  double max_video_correction_m = 0.02;
+  double max_video_correction_deg = 1.0;
   double min_overlap = 0.3;
   double max_free_space = 0.1;
   double min_constraint = 0.01;       // rotation only (tripod turn)
