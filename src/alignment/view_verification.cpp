@@ -373,6 +373,75 @@ CheckBox check_box(const AlignmentState& s, std::size_t i) {
   return {lo.array() - margin, hi.array() + margin};
 }
 
+// Where the camera stands, on a tripod turn: the view's own points fix it along the
+// directions where they face a surface; along the others (a bare wall: the slide along it)
+// nothing the check's ICP sees does. There the true centre is the nodal model's, give or take
+// the tripod's measured play (the turn's scatter about the model, split evenly over three
+// axes), and the estimate may stand off the model as well (weak data pulled it). Its error
+// there is at most that offset plus 2.5 sigma of the play; the view is vouched for where this
+// stays within the bar a verified view meets (as a view held by the tripod is).
+struct SlideJudgement {
+  double constraint = 0.0;    // smallest eigenvalue (ViewCheck::slide_constraint)
+  int free_axes = 0;          // below min_constraint (0 on video: its check sees all six)
+  double play_m = 0.0;        // the tripod's measured play (inf: unmeasured)
+  double sigma_m = 0.0;       // the play along the free axes
+  double off_model_m = 0.0;   // the estimate's offset from the nodal model along them
+  double bound_m = 0.0;       // offset + 2.5 sigma (inf: no tripod model)
+  bool held = true;
+};
+
+SlideJudgement judge_slide(const AlignmentState& s, std::size_t i, const Matrix6d& information,
+                           double tripod_play_m, const Eigen::Vector3d& tripod_residual_camera) {
+  const ViewCheckOptions& limits = s.options.view_check;
+  const SlideConstraint slide = slide_constraint(s, i, information);
+  SlideJudgement j;
+  j.constraint = slide.eigenvalues(0);
+  j.play_m = tripod_play_m;
+  j.free_axes = rotation_only(s.options) ? slide.free_axes(limits.min_constraint) : 0;
+  if (j.free_axes == 0) return j;
+  j.sigma_m = tripod_play_m * std::sqrt(static_cast<double>(j.free_axes) / 3.0);
+  j.off_model_m = slide.along_free(tripod_residual_camera, limits.min_constraint);
+  j.bound_m = std::isfinite(j.off_model_m) ? j.off_model_m + 2.5 * j.sigma_m
+                                           : std::numeric_limits<double>::infinity();
+  j.held = j.bound_m <= limits.max_error_m;
+  return j;
+}
+
+std::string slide_reason(const SlideJudgement& j, const ViewCheckOptions& limits) {
+  const std::string what = fmt::format(
+      "its points do not fix where its camera stands along {} {} (constraint {:.4f}, need >= "
+      "{:.3f}: a bare wall)",
+      j.free_axes, j.free_axes > 1 ? "axes" : "axis", j.constraint, limits.min_constraint);
+  if (!std::isfinite(j.bound_m))
+    return what + ", and the tripod cannot place it (too few views fix themselves to measure "
+                  "its play, or the views make no tripod fit)";
+  return what + fmt::format(", and there it stands {:.1f} mm off the tripod's nodal model, whose "
+                            "play ({:.1f} mm) adds {:.1f} mm at 2.5 sigma (allowed {:.0f} mm in all)",
+                            1000 * j.off_model_m, 1000 * j.play_m, 2500 * j.sigma_m,
+                            1000 * limits.max_error_m);
+}
+
+// Confidence: the smallest margin to any limit, 1 far inside all of them, 0 at or past one.
+double view_confidence(const ViewCheck& c, const ViewCheckOptions& limits, double max_correction_m,
+                       double max_correction_deg, double needed, const SlideJudgement& slide) {
+  const auto below = [](double value, double limit) {
+    return std::clamp(1.0 - value / limit, 0.0, 1.0);
+  };
+  const auto above = [](double value, double limit, double good) {
+    return std::clamp((value - limit) / (good - limit), 0.0, 1.0);
+  };
+  const double off_axis = std::isfinite(c.off_axis_deg) ? c.off_axis_deg : 0.0;
+  const double off_tripod = std::isfinite(c.tripod_residual_m) ? c.tripod_residual_m : 0.0;
+  return std::min({below(c.correction_m, max_correction_m),
+                   below(off_axis, limits.max_off_axis_deg),
+                   below(off_tripod, limits.max_tripod_residual_m),
+                   below(c.correction_deg, max_correction_deg),
+                   below(c.free_space, limits.max_free_space),
+                   above(c.overlap, limits.min_overlap, 1.0),
+                   above(c.constraint, needed, 5.0 * needed),
+                   slide.free_axes == 0 ? 1.0 : below(slide.bound_m, limits.max_error_m)});
+}
+
 ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_t i,
                      const Eigen::Vector3d& tripod_centre, double off_axis_deg,
                      double tripod_residual_m, const Eigen::Vector3d& tripod_residual_camera,
@@ -414,24 +483,8 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
       std::isfinite(tripod_residual_m) && c.constraint < limits.min_constraint &&
       pan >= limits.min_constraint;
   if (held_by_tripod) c.constraint = pan;
-  // Where the camera stands, on a tripod turn: the view's own points fix it along the
-  // directions where they face a surface; along the others (a bare wall: the slide along it)
-  // nothing the check's ICP sees does. There the true centre is the nodal model's, give or
-  // take the tripod's measured play (the turn's scatter about the model, split evenly over
-  // three axes), and the estimate may stand off the model as well (weak data pulled it). Its
-  // error there is at most that offset plus 2.5 sigma of the play; the view is vouched for
-  // where this stays within the bar a verified view meets (as held_by_tripod's).
-  const SlideConstraint slide = slide_constraint(s, i, information);
-  c.slide_constraint = slide.eigenvalues(0);
-  const int free_axes = rotation_only(o) ? slide.free_axes(limits.min_constraint) : 0;
-  const double slide_sigma_m =
-      tripod_play_m * std::sqrt(static_cast<double>(free_axes) / 3.0);  // inf: unmeasured
-  const double off_model_m =
-      free_axes > 0 ? slide.along_free(tripod_residual_camera, limits.min_constraint) : 0.0;
-  const double slide_bound_m = std::isfinite(off_model_m)
-                                   ? off_model_m + 2.5 * slide_sigma_m
-                                   : std::numeric_limits<double>::infinity();
-  const bool slide_held = free_axes == 0 || slide_bound_m <= limits.max_error_m;
+  const SlideJudgement slide = judge_slide(s, i, information, tripod_play_m, tripod_residual_camera);
+  c.slide_constraint = slide.constraint;
   c.tripod_play_m = tripod_play_m;
 
   const OthersModel others = others_model(model, i, box.lo, box.hi);
@@ -514,22 +567,7 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
     reasons.push_back(fmt::format("its camera stands {:.0f} mm from where the tripod's head puts "
                                   "it (allowed {:.0f} mm)",
                                   1000 * c.tripod_residual_m, 1000 * limits.max_tripod_residual_m));
-  if (!slide_held && !held_by_tripod)
-    reasons.push_back(
-        std::isfinite(slide_bound_m)
-            ? fmt::format("its points do not fix where its camera stands along {} {} "
-                          "(constraint {:.4f}, need >= {:.3f}: a bare wall), and there it stands "
-                          "{:.1f} mm off the tripod's nodal model, whose play ({:.1f} mm) adds "
-                          "{:.1f} mm at 2.5 sigma (allowed {:.0f} mm in all)",
-                          free_axes, free_axes > 1 ? "axes" : "axis", c.slide_constraint,
-                          limits.min_constraint, 1000 * off_model_m, 1000 * tripod_play_m,
-                          2500 * slide_sigma_m, 1000 * limits.max_error_m)
-            : fmt::format("its points do not fix where its camera stands along {} {} "
-                          "(constraint {:.4f}, need >= {:.3f}: a bare wall), and the tripod "
-                          "cannot place it (too few views fix themselves to measure its play, "
-                          "or the views make no tripod fit)",
-                          free_axes, free_axes > 1 ? "axes" : "axis", c.slide_constraint,
-                          limits.min_constraint));
+  if (!slide.held && !held_by_tripod) reasons.push_back(slide_reason(slide, limits));
   if (c.constraint < needed)
     reasons.push_back(fmt::format("geometry does not fix its pose{} (constraint {:.4f}, need >= "
                                   "{:.3f}: a bare wall or plane)",
@@ -537,25 +575,8 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
                                   needed));
   c.verified = reasons.empty();
   for (const std::string& reason : reasons) c.reason += (c.reason.empty() ? "" : "; ") + reason;
-  // Confidence: the smallest margin to any limit, 1 far inside all of them, 0 at or past one.
-  const auto below = [](double value, double limit) {
-    return std::clamp(1.0 - value / limit, 0.0, 1.0);
-  };
-  const auto above = [](double value, double limit, double good) {
-    return std::clamp((value - limit) / (good - limit), 0.0, 1.0);
-  };
-  const double off_axis = std::isfinite(c.off_axis_deg) ? c.off_axis_deg : 0.0;
-  const double off_tripod = std::isfinite(c.tripod_residual_m) ? c.tripod_residual_m : 0.0;
-  const double confidence = std::min({below(c.correction_m, max_correction_m),
-                                      below(off_axis, limits.max_off_axis_deg),
-                                      below(off_tripod, limits.max_tripod_residual_m),
-                                      below(c.correction_deg, max_correction_deg),
-                                      below(c.free_space, limits.max_free_space),
-                                      above(c.overlap, limits.min_overlap, 1.0),
-                                      above(c.constraint, needed, 5.0 * needed),
-                                      free_axes == 0 ? 1.0
-                                                     : below(slide_bound_m,
-                                                             limits.max_error_m)});
+  const double confidence = view_confidence(c, limits, max_correction_m, max_correction_deg, needed,
+                                            slide);
   c.confidence = c.verified ? std::clamp(confidence, 0.0, 1.0) : 0.0;
   return c;
 }
