@@ -104,22 +104,18 @@ double min_constraint(const AlignmentOptions& o) {
   return rotation_only(o) ? o.view_check.min_constraint : o.view_check.min_constraint_6dof;
 }
 
-// What a view's own points say of its pose, computed once per check (the rounds reuse it): the
-// geometric information and, where colour is registered to depth and the geometry leaves a
-// direction free, the colour term's (it costs a gradient fit over the view).
-// The weakest direction of the translation alone: geometry, and the colour term's significant
-// gradients where the geometry leaves the slide free (translation_constraint's rule).
-// Its eigenvalues, smallest first.
-// Its eigen-decomposition (camera frame), smallest first.
+// How firmly a view's own points fix where its camera stands: the eigen-decomposition
+// (camera frame, smallest first) of the translation block of its information - geometry, and
+// the colour term's significant gradients where the geometry leaves the slide free
+// (translation_constraint's rule).
 struct SlideConstraint {
   Eigen::Vector3d eigenvalues = Eigen::Vector3d::Zero();
   Eigen::Matrix3d axes = Eigen::Matrix3d::Identity();  // columns
   int free_axes(double needed) const {
     return static_cast<int>((eigenvalues.array() < needed).count());
   }
-  // The length of v's part along the free axes.
-  double along_free(const Eigen::Vector3d& v, double needed) const {
-    const int k = free_axes(needed);
+  // The length of v's part along the first k (the free) axes.
+  double along_free(const Eigen::Vector3d& v, int k) const {
     return (axes.leftCols(k).transpose() * v).norm();
   }
 };
@@ -135,6 +131,9 @@ SlideConstraint slide_constraint(const AlignmentState& s, std::size_t i, const M
   return translation(geometry + color_information(s, i));
 }
 
+// What a view's own points say of its pose, computed once per check (the rounds reuse it): the
+// geometric information and, where colour is registered to depth and the geometry leaves a
+// direction free, the colour term's (it costs a gradient fit over the view).
 struct ViewInformation {
   Matrix6d geometry = Matrix6d::Zero();
   std::optional<Matrix6d> color;
@@ -400,7 +399,7 @@ SlideJudgement judge_slide(const AlignmentState& s, std::size_t i, const Matrix6
   j.free_axes = rotation_only(s.options) ? slide.free_axes(limits.min_constraint) : 0;
   if (j.free_axes == 0) return j;
   j.sigma_m = tripod_play_m * std::sqrt(static_cast<double>(j.free_axes) / 3.0);
-  j.off_model_m = slide.along_free(tripod_residual_camera, limits.min_constraint);
+  j.off_model_m = slide.along_free(tripod_residual_camera, j.free_axes);
   j.bound_m = std::isfinite(j.off_model_m) ? j.off_model_m + 2.5 * j.sigma_m
                                            : std::numeric_limits<double>::infinity();
   j.held = j.bound_m <= limits.max_error_m;

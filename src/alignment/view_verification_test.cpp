@@ -219,10 +219,9 @@ TEST(ViewCheck, ABareWallViewOnAShakyTripodIsFlagged) {
 
 // Views whose surfaces fix their turn but not where the camera stands (a wall and the floor:
 // the slide along the line where they meet is free) - generated room 81 (one ring of 24,
-// Kinect v2) has six. On a tripod they are held there by the
-// tripod alone, and only as well as its measured play: verified on a steady tripod, flagged on
-// a shaky one, where 2.5 sigma of its play along the free axis passes half the correction a
-// view may need - whatever the check's ICP says, as it cannot see a slide along the wall.
+// Kinect v2) has six. On a tripod they are held there by the tripod alone, and only as well as its measured play: verified on a steady tripod, flagged on
+// a shaky one, where 2.5 sigma of its play along the free axis passes the 1 cm a verified view
+// meets - whatever the check's ICP says, as it cannot see a slide along the wall.
 std::vector<std::size_t> slide_free_views(const SolvedState& s) {
   std::vector<std::size_t> views;
   for (std::size_t i = 0; i < s.state.n; ++i) {

@@ -232,9 +232,11 @@ std::vector<Measurement> box_edges(const SceneObject& o) {
 constexpr double kCreaseDeg = 45.0;
 
 std::vector<Measurement> crease_edges(const TriangleMesh& mesh) {
-  using Key = std::array<float, 6>;
-  std::map<Key, std::vector<Eigen::Vector3f>> normals;
-  std::map<Key, std::pair<Eigen::Vector3f, Eigen::Vector3f>> ends;
+  struct Edge {
+    Eigen::Vector3f a, b;
+    std::vector<Eigen::Vector3f> normals;  // of the triangles that share it
+  };
+  std::map<std::array<float, 6>, Edge> edges;
   for (const auto& t : mesh.triangles) {
     const Eigen::Vector3f& p0 = mesh.vertices[t[0]];
     const Eigen::Vector3f n =
@@ -243,22 +245,26 @@ std::vector<Measurement> crease_edges(const TriangleMesh& mesh) {
       Eigen::Vector3f a = mesh.vertices[t[k]], b = mesh.vertices[t[(k + 1) % 3]];
       if (std::lexicographical_compare(b.data(), b.data() + 3, a.data(), a.data() + 3))
         std::swap(a, b);
-      const Key key{a.x(), a.y(), a.z(), b.x(), b.y(), b.z()};
-      normals[key].push_back(n);
-      ends[key] = {a, b};
+      Edge& e = edges[{a.x(), a.y(), a.z(), b.x(), b.y(), b.z()}];
+      e.a = a;
+      e.b = b;
+      e.normals.push_back(n);
     }
   }
   const float cos_crease = static_cast<float>(std::cos(kCreaseDeg * std::numbers::pi / 180.0));
+  const auto folds = [&](const std::vector<Eigen::Vector3f>& ns) {
+    if (ns.size() == 1) return true;  // the surface ends there
+    for (std::size_t i = 0; i < ns.size(); ++i)
+      for (std::size_t j = i + 1; j < ns.size(); ++j)
+        if (ns[i].dot(ns[j]) < cos_crease) return true;
+    return false;
+  };
   std::vector<Measurement> out;
-  for (const auto& [key, ns] : normals) {
-    bool crease = ns.size() == 1;
-    for (std::size_t i = 0; i < ns.size() && !crease; ++i)
-      for (std::size_t j = i + 1; j < ns.size() && !crease; ++j)
-        crease = ns[i].dot(ns[j]) < cos_crease;
-    if (!crease) continue;
+  for (const auto& [key, e] : edges) {
+    if (!folds(e.normals)) continue;
     Measurement m;
-    m.a = ends[key].first.cast<double>();
-    m.b = ends[key].second.cast<double>();
+    m.a = e.a.cast<double>();
+    m.b = e.b.cast<double>();
     if (m.distance() > 1e-6) out.push_back(m);
   }
   std::stable_sort(out.begin(), out.end(), [](const Measurement& x, const Measurement& y) {
