@@ -152,6 +152,18 @@ std::optional<TripodFit> fit_tripod(const std::vector<Eigen::Matrix3d>& R,
   return fit;
 }
 
+std::vector<std::size_t> densest_centres(const std::vector<Eigen::Isometry3d>& T, double radius) {
+  const double r2 = radius * radius;
+  std::vector<std::size_t> best;
+  for (std::size_t i = 0; i < T.size(); ++i) {
+    std::vector<std::size_t> near;
+    for (std::size_t j = 0; j < T.size(); ++j)
+      if ((T[j].translation() - T[i].translation()).squaredNorm() <= r2) near.push_back(j);
+    if (near.size() > best.size()) best = std::move(near);
+  }
+  return best;
+}
+
 Eigen::Vector3d median_centre(const std::vector<Eigen::Isometry3d>& T) {
   Eigen::Vector3d m = Eigen::Vector3d::Zero();
   if (T.empty()) return m;
@@ -165,17 +177,24 @@ Eigen::Vector3d median_centre(const std::vector<Eigen::Isometry3d>& T) {
   return m;
 }
 
-std::optional<std::size_t> views_off_tripod(const std::vector<Eigen::Isometry3d>& T,
-                                            double off_axis_deg, double residual_m) {
+std::optional<std::vector<char>> which_views_off_tripod(const std::vector<Eigen::Isometry3d>& T,
+                                                        double off_axis_deg, double residual_m) {
   std::vector<Eigen::Matrix3d> R;
   for (const Eigen::Isometry3d& t : T) R.push_back(t.linear());
   const std::optional<TripodFit> fit = fit_tripod(R);
   if (!fit) return std::nullopt;
   const NodalFit nodal = fit_nodal(T);
-  std::size_t off = 0;
+  std::vector<char> off(T.size());
   for (std::size_t i = 0; i < T.size(); ++i)
-    off += fit->off_axis_deg[i] >= off_axis_deg || nodal.residual_m[i] >= residual_m;
+    off[i] = fit->off_axis_deg[i] >= off_axis_deg || nodal.residual_m[i] >= residual_m;
   return off;
+}
+
+std::optional<std::size_t> views_off_tripod(const std::vector<Eigen::Isometry3d>& T,
+                                            double off_axis_deg, double residual_m) {
+  const auto off = which_views_off_tripod(T, off_axis_deg, residual_m);
+  if (!off) return std::nullopt;
+  return static_cast<std::size_t>(std::count(off->begin(), off->end(), 1));
 }
 
 NodalFit fit_nodal(const std::vector<Eigen::Isometry3d>& T, double inlier_m) {

@@ -36,6 +36,11 @@ constexpr double kTripodCentreSigmaM = 0.03;
 
 // Component-wise median of the poses' camera centres (robust to a minority of wrong views).
 Eigen::Vector3d median_centre(const std::vector<Eigen::Isometry3d>& T_world_camera);
+// The views (indices, ascending) whose camera centres stand within `radius` of the view with
+// the most such neighbours: the turn's own, where tracking left arcs of it elsewhere (no
+// majority is left for a median or a least-squares fit to find).
+std::vector<std::size_t> densest_centres(const std::vector<Eigen::Isometry3d>& T_world_camera,
+                                         double radius);
 
 struct TripodFit {
   Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();  // world frame, unit
@@ -67,8 +72,11 @@ struct NodalFit {
 };
 NodalFit fit_nodal(const std::vector<Eigen::Isometry3d>& T_world_camera, double inlier_m = 0.01);
 
-// How many of the poses stand off the tripod: off their ring by off_axis_deg or more, or off
-// the nodal model by residual_m or more. None when the poses make no tripod fit.
+// Which of the poses stand off the tripod: off their ring by off_axis_deg or more, or off the
+// nodal model by residual_m or more. None when the poses make no tripod fit.
+std::optional<std::vector<char>> which_views_off_tripod(
+    const std::vector<Eigen::Isometry3d>& T_world_camera, double off_axis_deg, double residual_m);
+// How many (which_views_off_tripod's count).
 std::optional<std::size_t> views_off_tripod(const std::vector<Eigen::Isometry3d>& T_world_camera,
                                             double off_axis_deg, double residual_m);
 

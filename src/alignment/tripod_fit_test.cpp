@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <numeric>
 #include <random>
 #include <set>
 
@@ -139,6 +140,30 @@ TEST(TripodFit, NodalModelFindsTheCentresThatLeftTheHead) {
   const auto off = views_off_tripod(T, 0.5, 0.02);
   ASSERT_TRUE(off);
   EXPECT_EQ(*off, slid.size());
+  const auto which = which_views_off_tripod(T, 0.5, 0.02);
+  ASSERT_TRUE(which);
+  for (std::size_t i = 0; i < T.size(); ++i) EXPECT_EQ((*which)[i], slid.count(i)) << "view " << i;
+}
+
+// A turn whose tracking left two arcs elsewhere, 0.5 and 0.7 m off, the true centre holding
+// fewer than half the views: the views that stand together are the largest arc, exactly.
+TEST(TripodFit, DensestCentresAreTheLargestArcWithoutAMajority) {
+  std::mt19937 rng(8);
+  const Tripod t = make_tripod({0.0}, 40, 0.02, rng);
+  const Eigen::Vector3d pivot(1.0, 2.0, 1.4), offset(0.0, 0.0, 0.08);
+  std::vector<Eigen::Isometry3d> T;
+  for (std::size_t i = 0; i < t.R.size(); ++i) {
+    Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+    pose.linear() = t.R[i];
+    pose.translation() = pivot + t.R[i] * offset;
+    if (i >= 16 && i < 28) pose.translation() += Eigen::Vector3d(0.5, 0.0, 0.0);
+    if (i >= 28) pose.translation() += Eigen::Vector3d(0.0, 0.7, 0.0);
+    T.push_back(pose);
+  }
+  std::vector<std::size_t> largest(16);
+  std::iota(largest.begin(), largest.end(), 0);
+  EXPECT_EQ(densest_centres(T, 0.25), largest);
+  EXPECT_EQ(densest_centres(T, 2.0).size(), T.size());  // one turn at a radius that takes all
 }
 
 TEST(TripodFit, NoTurnNoFit) {

@@ -318,7 +318,16 @@ TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<
   if (!s.options.ring_sizes.empty()) fit_options.min_inlier_share = 0.0;  // a known turn
   const std::optional<TripodFit> fit = fit_tripod(R, fit_options);
   if (!fit) return out;
-  const NodalFit nodal = fit_nodal(T);
+  // The nodal model of the views that stand together (densest_centres): where tracking left
+  // arcs of the turn tens of centimetres apart, a fit to all of them fits none, and every view
+  // is then flagged as off the tripod - the good arc with the wrong ones (generated room 30).
+  std::vector<Isometry3d> together;
+  for (std::size_t k : densest_centres(T, s.options.view_check.max_tripod_offset_m))
+    together.push_back(T[k]);
+  NodalFit nodal = fit_nodal(together);
+  nodal.residual_m.clear();
+  for (const Isometry3d& t : T)
+    nodal.residual_m.push_back((t.translation() - nodal.pivot - t.linear() * nodal.offset).norm());
   out.axis = fit->axis;
   double sum2 = 0.0;
   std::size_t fixed = 0;
@@ -441,6 +450,9 @@ double view_confidence(const ViewCheck& c, const ViewCheckOptions& limits, doubl
                    slide.free_axes == 0 ? 1.0 : below(slide.bound_m, limits.max_error_m)});
 }
 
+constexpr std::string_view kAlone = "no other view overlaps it";
+constexpr std::string_view kAllFlagged = "; and every view that overlaps it is flagged too";
+
 ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_t i,
                      const Eigen::Vector3d& tripod_centre, double off_axis_deg,
                      double tripod_residual_m, const Eigen::Vector3d& tripod_residual_camera,
@@ -490,7 +502,7 @@ ViewCheck check_view(const AlignmentState& s, const ViewModel& model, std::size_
 
   std::vector<std::string> reasons;
   if (others.surface.size() < 50) {
-    c.reason = "no other view overlaps it";
+    c.reason = std::string(kAlone);
     return c;
   }
   const PointCloud source = check_sample(cloud);
@@ -627,7 +639,10 @@ void check_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
   for (std::size_t i : views) excluded[i] = 0;
   std::vector<Isometry3d> final_poses;
   for (std::size_t i : views) final_poses.push_back(*s.result.frames[i].T_world_camera_final);
-  const Eigen::Vector3d tripod_centre = median_centre(final_poses);
+  std::vector<Isometry3d> together;
+  for (std::size_t k : densest_centres(final_poses, s.options.view_check.max_tripod_offset_m))
+    together.push_back(final_poses[k]);
+  const Eigen::Vector3d tripod_centre = median_centre(together);
   std::vector<ViewInformation> information(views.size());
   std::vector<CheckBox> boxes(views.size());
   tbb::parallel_for(std::size_t{0}, views.size(), [&](std::size_t k) {
@@ -640,11 +655,18 @@ void check_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
     const ViewModel model = build_model(s, excluded);
     tbb::parallel_for(std::size_t{0}, views.size(), [&](std::size_t k) {
       if (!due[k]) return;
-      s.result.frames[views[k]].check = check_view(s, model, views[k], tripod_centre,
-                                                   tripod.off_axis_deg[views[k]],
-                                                   tripod.residual_m[views[k]],
-                                                   tripod.residual_camera[views[k]], tripod.axis,
-                                                   tripod.play_m, information[k], boxes[k]);
+      ViewCheck& check = s.result.frames[views[k]].check;
+      const ViewCheck before = check;
+      check = check_view(s, model, views[k], tripod_centre, tripod.off_axis_deg[views[k]],
+                         tripod.residual_m[views[k]], tripod.residual_camera[views[k]],
+                         tripod.axis, tripod.play_m, information[k], boxes[k]);
+      // A view flagged in an earlier round whose overlapping views are all flagged now keeps
+      // what it was flagged for: "alone" would hide the reason.
+      if (round > 0 && check.reason == kAlone && before.checked && !before.verified &&
+          before.reason != kAlone) {
+        check = before;
+        if (!check.reason.ends_with(kAllFlagged)) check.reason += kAllFlagged;
+      }
     });
     std::vector<std::size_t> changed;
     for (std::size_t k = 0; k < views.size(); ++k) {
