@@ -452,9 +452,9 @@ void refine_jointly(AlignmentState& s) {
   // tripod's play may hold a couple of centimetres from the model (kOnTripodM would undo that).
   // A view that refinement takes off the tripod keeps its solved pose, and the self-check
   // judges it against the refined rest; only when the rest then stands off the tripod more than
-  // before is the whole refinement undone. (Undoing it for one view threw away the gain of all
-  // the others: generated Kinect v1 room 10 with noise-weighted residuals, 12.6 mm against
-  // 6.7 mm ATE with the view held.)
+  // before is the whole refinement undone. (Undoing it for one view throws away the gain of all
+  // the others: generated Kinect v1 room 10, refined with noise-weighted residuals - tried, not
+  // landed, docs/benchmarks.md - lost a refinement from 12.6 to 6.7 mm ATE to one view.)
   const double off_model_m = s.options.view_check.max_tripod_residual_m;
   const auto was = which_views_off_tripod(solved, kOnRingDeg, off_model_m);
   const auto now = which_views_off_tripod(poses, kOnRingDeg, off_model_m);

@@ -318,13 +318,16 @@ TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<
   if (!s.options.ring_sizes.empty()) fit_options.min_inlier_share = 0.0;  // a known turn
   const std::optional<TripodFit> fit = fit_tripod(R, fit_options);
   if (!fit) return out;
-  // The nodal model of the views that stand together (densest_centres): where tracking left
-  // arcs of the turn tens of centimetres apart, a fit to all of them fits none, and every view
-  // is then flagged as off the tripod - the good arc with the wrong ones (generated room 30).
-  std::vector<Isometry3d> together;
-  for (std::size_t k : densest_centres(T, s.options.view_check.max_tripod_offset_m))
+  // The nodal model of the views that stand together (densest_centres) on their ring: where
+  // tracking left arcs of the turn tens of centimetres apart, or whole rings tilted off the
+  // pan axis, a fit to all of them fits none, and every view is then flagged as off the
+  // tripod - the good arc or ring with the wrong ones (generated rooms 30 and 45).
+  std::vector<Isometry3d> together, on_ring;
+  for (std::size_t k : densest_centres(T, s.options.view_check.max_tripod_offset_m)) {
     together.push_back(T[k]);
-  NodalFit nodal = fit_nodal(together);
+    if (fit->off_axis_deg[k] <= s.options.view_check.max_off_axis_deg) on_ring.push_back(T[k]);
+  }
+  NodalFit nodal = fit_nodal(on_ring.size() >= kPlayViews ? on_ring : together);
   nodal.residual_m.clear();
   for (const Isometry3d& t : T)
     nodal.residual_m.push_back((t.translation() - nodal.pivot - t.linear() * nodal.offset).norm());
