@@ -110,18 +110,17 @@ enum class AlignmentMode { Cumulative, Odometry };
 //    sigma of the play along its k free axes (play * sqrt(k / 3)), plus its offset from the
 //    nodal model along them, stays within max_error_m.
 //  - tripod (cumulative mode, the tripod-turn scheme): the camera centre lies within
-//    max_tripod_offset_m of the median centre of the views that stand together (the most
-//    views within that distance of one view: where tracking left arcs of the turn at several
-//    centres, no majority is left for a median, and the largest arc is the turn); a view placed
-//    elsewhere is wrong whatever its overlap (a symmetric room fits itself turned by 180
-//    degrees). The nodal model below is fitted to the same views, those of them on their ring
-//    (a ring tracked tens of degrees off the axis as a whole would pull it off every view).
-//    And the pan
-//    axis as the camera sees it is its ring's (tripod_fit.hpp): a view tilted or rolled more
-//    than max_off_axis_deg off its ring is wrong however well it fits (a bare wall lets a
-//    view turn about its normal, and a wrong roll still fits it); and its camera centre lies
-//    within max_tripod_residual_m of the tripod's nodal model c = P + R d (tripod_fit.hpp:
-//    the head turns the camera about a pivot), as a wall lets a view slide along it.
+//    max_tripod_offset_m of the median centre of the views that stand together (the most views
+//    within that distance of one view: where tracking left arcs of the turn at several centres,
+//    no majority is left for a median, and the largest arc is the turn); a view placed elsewhere
+//    is wrong whatever its overlap (a symmetric room fits itself turned by 180 degrees). The
+//    nodal model below is fitted to the same views, those of them on their ring (a ring tracked
+//    tens of degrees off the axis as a whole would pull it off every view). And the pan axis as
+//    the camera sees it is its ring's (tripod_fit.hpp): a view tilted or rolled more than
+//    max_off_axis_deg off its ring is wrong however well it fits (a bare wall lets a view turn
+//    about its normal, and a wrong roll still fits it); and its camera centre lies within
+//    max_tripod_residual_m of the tripod's nodal model c = P + R d (tripod_fit.hpp: the head
+//    turns the camera about a pivot), as a wall lets a view slide along it.
 // A view that fails any test is flagged with the reason; flagged views leave the model and the
 // check runs again (at most `rounds` times), so one wrong view cannot condemn its neighbours;
 // a view flagged in an earlier round whose overlapping views are then all flagged keeps the
