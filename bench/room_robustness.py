@@ -12,7 +12,8 @@ exact poses. A view is
 A room succeeds when align exits 0 (>= 90 % of views verified), ATE <= 3 mm and every
 verified view is good. It is accurate (the issue's "within the bar, the rest flagged") when
 ATE <= 3 mm and every verified view is good, whatever share of views was verified. The fit to the truth and the ATE use the verified views: what the run
-vouches for. Each room also prints the error's systematic part: the mean offset along the views'
+vouches for. Each room also prints the ATE of every registered view (the alignment's own
+accuracy, flags aside) and the error's systematic part: the mean offset along the views'
 own viewing directions and the mean rotation error in the camera frame.
 
   /usr/bin/python3 bench/room_robustness.py --locard build/release/locard --seeds 1-50 \
