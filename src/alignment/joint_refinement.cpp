@@ -464,9 +464,9 @@ void refine_jointly(AlignmentState& s) {
         poses[k] = solved[k];
         ++report.views_held;
       }
-  const auto off_before = views_off_tripod(solved, kOnRingDeg, off_model_m);
   const auto off_after = views_off_tripod(poses, kOnRingDeg, off_model_m);
-  if (off_before && (!off_after || *off_after > *off_before)) {
+  if (was && (!off_after ||
+              *off_after > static_cast<std::size_t>(std::count(was->begin(), was->end(), 1)))) {
     report.undone = true;
     return;
   }

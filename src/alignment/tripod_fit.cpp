@@ -202,8 +202,7 @@ NodalFit fit_nodal(const std::vector<Eigen::Isometry3d>& T, double inlier_m) {
   std::vector<char> used(T.size(), 1);
   const auto residuals = [&] {
     fit.residual_m.clear();
-    for (const Eigen::Isometry3d& t : T)
-      fit.residual_m.push_back((t.translation() - fit.pivot - t.linear() * fit.offset).norm());
+    for (const Eigen::Isometry3d& t : T) fit.residual_m.push_back(fit.residual(t));
   };
   for (int round = 0; round < 3; ++round) {
     Eigen::Matrix<double, 6, 6> H = Eigen::Matrix<double, 6, 6>::Zero();

@@ -69,6 +69,10 @@ struct NodalFit {
   Eigen::Vector3d pivot = Eigen::Vector3d::Zero();   // world
   Eigen::Vector3d offset = Eigen::Vector3d::Zero();  // camera frame
   std::vector<double> residual_m;                    // per view: |c_i - P - R_i d|
+  // |c - P - R d| of any pose, fitted or not.
+  double residual(const Eigen::Isometry3d& T_world_camera) const {
+    return (T_world_camera.translation() - pivot - T_world_camera.linear() * offset).norm();
+  }
 };
 NodalFit fit_nodal(const std::vector<Eigen::Isometry3d>& T_world_camera, double inlier_m = 0.01);
 

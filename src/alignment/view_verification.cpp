@@ -301,7 +301,9 @@ struct TripodConsistency {
 
 constexpr std::size_t kPlayViews = 5;
 
+// `together`: the positions in `views` of those that stand together (densest_centres).
 TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<std::size_t>& views,
+                                     const std::vector<std::size_t>& together,
                                      const std::vector<ViewInformation>& information) {
   TripodConsistency out;
   out.off_axis_deg.assign(s.n, std::numeric_limits<double>::quiet_NaN());
@@ -322,15 +324,14 @@ TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<
   // tracking left arcs of the turn tens of centimetres apart, or whole rings tilted off the
   // pan axis, a fit to all of them fits none, and every view is then flagged as off the
   // tripod - the good arc or ring with the wrong ones (generated rooms 30 and 45).
-  std::vector<Isometry3d> together, on_ring;
-  for (std::size_t k : densest_centres(T, s.options.view_check.max_tripod_offset_m)) {
-    together.push_back(T[k]);
+  std::vector<Isometry3d> standing, on_ring;
+  for (std::size_t k : together) {
+    standing.push_back(T[k]);
     if (fit->off_axis_deg[k] <= s.options.view_check.max_off_axis_deg) on_ring.push_back(T[k]);
   }
-  NodalFit nodal = fit_nodal(on_ring.size() >= kPlayViews ? on_ring : together);
+  NodalFit nodal = fit_nodal(on_ring.size() >= kPlayViews ? on_ring : standing);
   nodal.residual_m.clear();
-  for (const Isometry3d& t : T)
-    nodal.residual_m.push_back((t.translation() - nodal.pivot - t.linear() * nodal.offset).norm());
+  for (const Isometry3d& t : T) nodal.residual_m.push_back(nodal.residual(t));
   out.axis = fit->axis;
   double sum2 = 0.0;
   std::size_t fixed = 0;
@@ -642,17 +643,18 @@ void check_piece(AlignmentState& s, const std::vector<std::size_t>& views) {
   for (std::size_t i : views) excluded[i] = 0;
   std::vector<Isometry3d> final_poses;
   for (std::size_t i : views) final_poses.push_back(*s.result.frames[i].T_world_camera_final);
-  std::vector<Isometry3d> together;
-  for (std::size_t k : densest_centres(final_poses, s.options.view_check.max_tripod_offset_m))
-    together.push_back(final_poses[k]);
-  const Eigen::Vector3d tripod_centre = median_centre(together);
+  const std::vector<std::size_t> together =
+      densest_centres(final_poses, s.options.view_check.max_tripod_offset_m);
+  std::vector<Isometry3d> standing;
+  for (std::size_t k : together) standing.push_back(final_poses[k]);
+  const Eigen::Vector3d tripod_centre = median_centre(standing);
   std::vector<ViewInformation> information(views.size());
   std::vector<CheckBox> boxes(views.size());
   tbb::parallel_for(std::size_t{0}, views.size(), [&](std::size_t k) {
     information[k] = view_information(s, views[k]);
     boxes[k] = check_box(s, views[k]);
   });
-  const TripodConsistency tripod = tripod_consistency(s, views, information);
+  const TripodConsistency tripod = tripod_consistency(s, views, together, information);
   std::vector<char> due(views.size(), 1);
   for (int round = 0; round < std::max(1, s.options.view_check.rounds); ++round) {
     const ViewModel model = build_model(s, excluded);
