@@ -54,9 +54,11 @@
 //     least-squares problem over the point-to-plane residuals of all overlapping pairs (up to
 //     8 partners a view) and the tripod's nodal model (pivot and offset solved with the views,
 //     each centre pulled to it: what no surface fixes - a wall view's slide, the height of
-//     rings that share only walls - the tripod does), a weak prior at the solved pose for the
+//     rings that share only walls - the tripod does), each view's pan axis as its camera sees
+//     it pulled onto its ring's (the tripod fit of the current poses: a head turns about one
+//     axis, so a view's tilt and roll are its ring's), a weak prior at the solved pose for the
 //     gauge; views that would move more than three voxels or a degree, or that it would take
-//     off the tripod, keep their solved pose.
+//     off the tripod, keep their solved pose (and do not count towards undoing it).
 // Randomness (RANSAC) is seeded by `seed`; the same input and options give the same result.
 
 #include <locard/alignment/pose_graph.hpp>
