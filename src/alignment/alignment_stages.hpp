@@ -9,6 +9,8 @@
 //   refine_jointly   tripod turn: all views moved at once over every overlapping pair (4b)
 //   check_views      every registered view tested against the others' model (5)
 // Each stage reads what the earlier ones wrote and adds its own part; none reaches back.
+#include "alignment/tripod_fit.hpp"
+
 #include <locard/alignment/sequential_alignment.hpp>
 #include <locard/core/disjoint_sets.hpp>
 #include <locard/core/kdtree.hpp>
@@ -74,6 +76,12 @@ void verify_loops(AlignmentState& state);
 void solve_graph(AlignmentState& state);
 void refine_jointly(AlignmentState& state);
 void check_views(AlignmentState& state);
+// The tripod fit (tripod_fit.hpp) of a turn's camera rotations as the self-check and the
+// joint refinement take it: none unless the run is a tripod turn (cumulative mode), and a turn
+// known from its capture (ring sizes) is fitted whatever share of views its rings hold - a
+// model half of whose views no tripod explains is wrong and must show it (view_verification.cpp).
+std::optional<TripodFit> turn_fit(const AlignmentOptions& o,
+                                  const std::vector<Eigen::Matrix3d>& R_world_camera);
 // The cells of side `cell_size` that a camera-frame cloud's points fall in at pose T (world
 // frame), sorted, each once (view_verification.cpp).
 std::vector<std::uint64_t> world_cells(const PointCloud& cloud, const Isometry3d& T,

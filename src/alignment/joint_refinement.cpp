@@ -273,6 +273,20 @@ Isometry3d perturbed(const Isometry3d& T, const Vector6d& xi, const Eigen::Vecto
   return D * T;
 }
 
+// [v]x: [v]x w = v x w.
+Eigen::Matrix3d skew(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
+}
+
+std::vector<Eigen::Matrix3d> rotations(const std::vector<Isometry3d>& poses) {
+  std::vector<Eigen::Matrix3d> R;
+  R.reserve(poses.size());
+  for (const Isometry3d& T : poses) R.push_back(T.linear());
+  return R;
+}
+
 // The nodal-model term (above) into the normal equations: the tripod's unknowns (P, d) follow
 // the views' 6n.
 void add_tripod_term(const std::vector<Isometry3d>& poses, const Eigen::Vector3d& centre,
@@ -292,7 +306,7 @@ void add_tripod_term(const std::vector<Isometry3d>& poses, const Eigen::Vector3d
     // Jacobian [view (omega, v) | model (P, d)], 3 x 12.
     Eigen::Matrix<double, 3, 12> J;
     const Eigen::Vector3d a = c - centre - Rd;
-    J.block<3, 3>(0, 0) << 0.0, a.z(), -a.y(), -a.z(), 0.0, a.x(), a.y(), -a.x(), 0.0;
+    J.block<3, 3>(0, 0) = -skew(a);
     J.block<3, 3>(0, 3).setIdentity();
     J.block<3, 3>(0, 6) = -Eigen::Matrix3d::Identity();
     J.block<3, 3>(0, 9) = -R;
@@ -321,8 +335,7 @@ void add_tripod_term(const std::vector<Isometry3d>& poses, const Eigen::Vector3d
 void add_ring_term(const std::vector<Isometry3d>& poses, const TripodFit& rings, double weight,
                    std::vector<Eigen::Triplet<double>>& entries, Eigen::VectorXd& rhs) {
   const Eigen::Vector3d& a = rings.axis;
-  Eigen::Matrix3d ax;
-  ax << 0.0, -a.z(), a.y(), a.z(), 0.0, -a.x(), -a.y(), a.x(), 0.0;
+  const Eigen::Matrix3d ax = skew(a);
   for (std::size_t i = 0; i < poses.size(); ++i) {
     if (!(rings.off_axis_deg[i] <= kMaxPulledOffRingDeg)) continue;
     const Eigen::Matrix3d& R = poses[i].linear();
@@ -418,18 +431,6 @@ Step step(const std::vector<View>& views, std::vector<Isometry3d>& poses,
   return done;
 }
 
-// The rings the ring term pulls to: the tripod fit of the current poses (a tripod turn only;
-// a known turn is fitted whatever share of views its rings hold, as in the self-check).
-std::optional<TripodFit> ring_fit(const AlignmentState& s, const std::vector<Isometry3d>& poses) {
-  if (s.options.mode != AlignmentMode::Cumulative) return std::nullopt;
-  std::vector<Eigen::Matrix3d> R;
-  R.reserve(poses.size());
-  for (const Isometry3d& T : poses) R.push_back(T.linear());
-  TripodFitOptions fit_options;
-  if (!s.options.ring_sizes.empty()) fit_options.min_inlier_share = 0.0;
-  return fit_tripod(R, fit_options);
-}
-
 // The nodal model the term starts from: the least-squares fit at the solved poses (the term's
 // steps move it with the views); the views within kOnTripodM of it are pulled. Unused with
 // fewer than three such views.
@@ -485,7 +486,7 @@ void refine_jointly(AlignmentState& s) {
   Tripod tripod = nodal_model(solved);
   for (const Pass& pass : kPasses)
     for (int it = 0; it < pass.max_iterations; ++it) {
-      const std::optional<TripodFit> rings = ring_fit(s, poses);
+      const std::optional<TripodFit> rings = turn_fit(s.options, rotations(poses));
       const Step done = step(views, poses, solved, pairs, gate, pass.source_stride, tripod, rings);
       report.correspondences = done.correspondences;
       ++report.iterations;

@@ -85,6 +85,13 @@ Errors errors(const AlignmentState& s) {
   return e;
 }
 
+void print_refinement(const Errors& before, const Errors& after, const JointRefinement& r) {
+  std::printf("before: ATE %.2f mm, worst %.1f mm / %.3f deg; after: ATE %.2f mm, worst %.1f mm / "
+              "%.3f deg (%zu pairs, %d steps, %zu held)\n",
+              1000 * before.ate_m, 1000 * before.worst_m, before.worst_deg, 1000 * after.ate_m,
+              1000 * after.worst_m, after.worst_deg, r.pairs, r.iterations, r.views_held);
+}
+
 // Each view moved by `mm` millimetres and `deg` degrees in a random direction (fixed seed).
 std::vector<Isometry3d> disturbed(const RgbdSequence& seq, double mm, double deg) {
   std::mt19937 rng(7);
@@ -109,10 +116,7 @@ TEST(JointRefinement, BringsADisturbedTurnToTheBar) {
   check_views(solved.state);
   const Errors after = errors(solved.state);
   const JointRefinement& r = solved.state.result.refinement;
-  std::printf("before: ATE %.2f mm, worst %.1f mm / %.3f deg; after: ATE %.2f mm, worst %.1f mm / "
-              "%.3f deg (%zu pairs, %d steps, %zu held)\n",
-              1000 * before.ate_m, 1000 * before.worst_m, before.worst_deg, 1000 * after.ate_m,
-              1000 * after.worst_m, after.worst_deg, r.pairs, r.iterations, r.views_held);
+  print_refinement(before, after, r);
   EXPECT_GT(before.ate_m, 0.004);  // the disturbance is what tracking leaves
   // The bar (3 mm ATE, every view within 0.5 degree / 1 cm). Before the ring term a
   // view that sees little more than a wall kept a slide along it (2.6 mm ATE, one view 10.2 mm
@@ -182,10 +186,7 @@ TEST(JointRefinement, BringsViewsTiltedOffTheirRingsBack) {
   refine_jointly(solved.state);
   const Errors after = errors(solved.state);
   const JointRefinement& r = solved.state.result.refinement;
-  std::printf("before: ATE %.2f mm, worst %.1f mm / %.3f deg; after: ATE %.2f mm, worst %.1f mm / "
-              "%.3f deg (%d steps, %zu held)\n",
-              1000 * before.ate_m, 1000 * before.worst_m, before.worst_deg, 1000 * after.ate_m,
-              1000 * after.worst_m, after.worst_deg, r.iterations, r.views_held);
+  print_refinement(before, after, r);
   EXPECT_GT(before.worst_deg, 0.5);
   EXPECT_FALSE(r.undone);
   EXPECT_LE(after.worst_deg, 0.1);

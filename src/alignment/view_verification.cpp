@@ -316,9 +316,7 @@ TripodConsistency tripod_consistency(const AlignmentState& s, const std::vector<
     T.push_back(*s.result.frames[i].T_world_camera_final);
     R.push_back(T.back().linear());
   }
-  TripodFitOptions fit_options;
-  if (!s.options.ring_sizes.empty()) fit_options.min_inlier_share = 0.0;  // a known turn
-  const std::optional<TripodFit> fit = fit_tripod(R, fit_options);
+  const std::optional<TripodFit> fit = turn_fit(s.options, R);
   if (!fit) return out;
   // The nodal model of the views that stand together (densest_centres) on their ring: where
   // tracking left arcs of the turn tens of centimetres apart, or whole rings tilted off the
@@ -714,9 +712,7 @@ std::optional<Eigen::Vector3d> pan_axis_of(const AlignmentState& s,
   if (s.options.mode != AlignmentMode::Cumulative) return std::nullopt;
   std::vector<Eigen::Matrix3d> R;
   for (std::size_t i : views) R.push_back(s.result.frames[i].T_world_camera_final->linear());
-  TripodFitOptions fit_options;
-  if (!s.options.ring_sizes.empty()) fit_options.min_inlier_share = 0.0;  // a known turn
-  const std::optional<TripodFit> fit = fit_tripod(R, fit_options);
+  const std::optional<TripodFit> fit = turn_fit(s.options, R);
   if (!fit) return std::nullopt;
   return fit->axis;
 }
@@ -796,6 +792,14 @@ void keep_linked_block(AlignmentState& s) {
 }
 
 }  // namespace
+
+std::optional<TripodFit> turn_fit(const AlignmentOptions& o,
+                                  const std::vector<Eigen::Matrix3d>& R_world_camera) {
+  if (o.mode != AlignmentMode::Cumulative) return std::nullopt;
+  TripodFitOptions fit_options;
+  if (!o.ring_sizes.empty()) fit_options.min_inlier_share = 0.0;  // a known turn
+  return fit_tripod(R_world_camera, fit_options);
+}
 
 void check_views(AlignmentState& s) {
   std::map<std::size_t, std::vector<std::size_t>> pieces;
