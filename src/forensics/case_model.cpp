@@ -44,7 +44,8 @@ double positive_number(const json& j, const char* key, const fs::path& path) {
 }
 
 // alignment/pose_covariance.json: {"views": [{"frame_index", "timestamp", "T_world_camera"
-// (4x4 rows), "covariance" (6x6 rows), "depth_path"?}, ...]}. Any other shape, a missing key
+// (4x4 rows), "verified"?, "covariance" (6x6 rows), "depth_path"?}, ...]}; views with
+// "verified": false are not read. Any other shape, a missing key
 // or a wrong type is an InputError naming the file and the view (never a raw JSON error).
 std::vector<ViewRecord> read_view_records(const fs::path& path) {
   const json views_json = io_detail::read_json_file(path);
@@ -71,8 +72,13 @@ std::vector<ViewRecord> read_view_records(const fs::path& path) {
         for (int b = 0; b < 6; ++b) r.covariance(a, b) = row.at(static_cast<std::size_t>(b)).get<double>();
       }
       r.depth_path = v.value("depth_path", "");
-      views.push_back(std::move(r));
       ++i;
+      // A view the self-check flagged is left out of the measurements as it is of the mesh:
+      // its depth would lay a second, displaced copy of the surfaces beside the verified ones.
+      // Cases written before the flag (and laser scans) have every view verified.
+      const json& verified = v.contains("verified") ? v.at("verified") : json(true);
+      if (!verified.is_boolean()) throw InputError(where + ": verified must be true or false");
+      if (verified.get<bool>()) views.push_back(std::move(r));
     }
   } catch (const json::exception& e) {
     throw_input_error(path, fmt::format("views[{}]: {}", i, e.what()));

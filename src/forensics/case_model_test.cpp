@@ -74,6 +74,29 @@ TEST(CaseModelLoad, ReadsAWellFormedCase) {
   EXPECT_EQ(model.noise().name, "kinect_v2");
 }
 
+TEST(CaseModelLoad, ViewsTheSelfCheckFlaggedAreNotMeasuredFrom) {
+  // reconstruct marks each view "verified"; a flagged view's depth is left out of the
+  // measurements as it is of the mesh. Without the field (older cases, laser scans) a view is
+  // read; a field that is not a boolean names the file and the view.
+  auto view = [](int frame, const std::string& verified) {
+    return R"({"frame_index": )" + std::to_string(frame) + R"(, "timestamp": 0, "T_world_camera": )" +
+           std::string(kIdentity) + verified + R"(, "covariance": )" + kZero6 + "}";
+  };
+  const fs::path root = make_case(
+      "flagged", kSensor,
+      R"({"views": [)" + view(0, R"(, "verified": true)") + "," + view(1, R"(, "verified": false)") +
+          "," + view(2, "") + "]}");
+  const CaseModel model = CaseModel::load(CaseFolder::open(root, CaseAccess::Read));
+  ASSERT_EQ(model.views().size(), 2u);
+  EXPECT_EQ(model.views()[0].frame_index, 0);
+  EXPECT_EQ(model.views()[1].frame_index, 2);
+  const std::string error =
+      load_error(make_case("verified_text", kSensor, R"({"views": [)" + view(0, R"(, "verified": "yes")") + "]}"));
+  EXPECT_NE(error.find("pose_covariance.json"), std::string::npos) << error;
+  EXPECT_NE(error.find("views[0]"), std::string::npos) << error;
+  EXPECT_NE(error.find("verified"), std::string::npos) << error;
+}
+
 TEST(CaseModelLoad, AViewWithoutAFrameIndexNamesTheFileAndTheView) {
   const fs::path root = make_case(
       "no_frame_index", kSensor,

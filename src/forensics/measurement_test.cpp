@@ -65,32 +65,39 @@ Isometry3d look_at(const Vector3d& eye, const Vector3d& target) {
   return T;
 }
 
+// The crate in a room as seen by seven views of `kinect` on an arc of radius `distance` at
+// `eye_height`, every depth image written under the scratch folder `tag`.
+CaseModel* crate_model(const sim::KinectModel& kinect, const SensorNoiseModel& noise,
+                       double distance, double eye_height, const std::string& tag) {
+  const fs::path dir = test::scratch_dir() / tag;
+  fs::create_directories(dir);
+  sim::Scene scene;
+  scene.room.size = {2 * distance + 1.5, 2 * distance + 1.5, 2.4};
+  sim::SceneObject crate;
+  crate.name = "crate";
+  crate.center = {0.0, 0.0, 0.5 * kHeight};
+  crate.size = {kLength, kWidth, kHeight};
+  scene.objects.push_back(crate);
+  const sim::ViewRenderer renderer(sim::build_scene_mesh(scene));
+  std::vector<ViewRecord> views;
+  for (int k = 0; k < 7; ++k) {
+    const double a = (-60.0 + 20.0 * k) * M_PI / 180.0;
+    ViewRecord v;
+    v.frame_index = k;
+    v.T_world_camera = look_at({distance * std::sin(a), -distance * std::cos(a), eye_height}, {0.0, 0.0, 0.3});
+    v.depth_path = dir / ("depth-" + std::to_string(k) + ".png");
+    write_png(v.depth_path, renderer.render(kinect, v.T_world_camera, 11, static_cast<std::uint64_t>(k)).depth);
+    views.push_back(v);
+  }
+  return new CaseModel(densify(renderer.scene_mesh().mesh, 0.02), views, kinect.intrinsics,
+                       kinect.depth_scale, noise, 0.01);
+}
+
 class Snapping : public ::testing::Test {
  protected:
   static void SetUpTestSuite() {
-    const fs::path dir = test::scratch_dir();
-    sim::Scene scene;
-    scene.room.size = {3.0, 3.0, 2.4};
-    sim::SceneObject crate;
-    crate.name = "crate";
-    crate.center = {0.0, 0.0, 0.5 * kHeight};
-    crate.size = {kLength, kWidth, kHeight};
-    scene.objects.push_back(crate);
-    const sim::ViewRenderer renderer(sim::build_scene_mesh(scene));
-    const sim::KinectModel kinect = sim::KinectModel::kinect_v2();
-    std::vector<ViewRecord> views;
-    for (int k = 0; k < 7; ++k) {
-      const double a = (-60.0 + 20.0 * k) * M_PI / 180.0;
-      ViewRecord v;
-      v.frame_index = k;
-      v.T_world_camera = look_at({1.4 * std::sin(a), -1.4 * std::cos(a), 1.2}, {0.0, 0.0, 0.3});
-      v.depth_path = dir / ("depth-" + std::to_string(k) + ".png");
-      write_png(v.depth_path, renderer.render(kinect, v.T_world_camera, 11, static_cast<std::uint64_t>(k)).depth);
-      views.push_back(v);
-    }
-    SensorNoiseModel noise;  // kinect_v2, 1 mm steps
-    model_ = new CaseModel(densify(renderer.scene_mesh().mesh, 0.02), views, kinect.intrinsics,
-                           kinect.depth_scale, noise, 0.01);
+    // Kinect v2 at 1.4 m (1 mm depth steps).
+    model_ = crate_model(sim::KinectModel::kinect_v2(), SensorNoiseModel{}, 1.4, 1.2, "near");
   }
   static void TearDownTestSuite() {
     delete model_;

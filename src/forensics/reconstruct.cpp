@@ -591,6 +591,7 @@ void write_alignment_files(const StageContext& c, const AlignmentResult& result,
                                         .lexically_normal()
                                         .string()},
                      {"T_world_camera", pose_json(result.graph.nodes[k])},
+                     {"verified", f.trusted()},
                      {"covariance", matrix_json(cov.covariances[k])},
                      {"sigma_translation_m", std::sqrt(cov.covariances[k].block<3, 3>(3, 3).trace())},
                      {"sigma_rotation_deg",

@@ -192,15 +192,16 @@ constexpr double kCosSide = 0.5;
 // of counting as "not snapped". Candidates are the planes along o (|n.o| < kCosSide) whose
 // points come within `reach` of the pick across the line, each at those nearest points, nearest
 // first; the move is across the line only, so the pick keeps its place along o (where the end
-// lies along the line is the snapping's to find). Empty when the pick already lies on such a
-// plane.
+// lies along the line is the snapping's to find). Planes the pick already lies on are not
+// candidates (the snap as given tried them): a face seen too obliquely to fix its own end (a
+// handful of points, a plane tilted by the corner's rounding) then lands on the face beside it.
 std::vector<Vector3d> landing_candidates(const std::vector<Plane>& planes, const LocalPoints& L,
                                          const Vector3d& point, const Vector3d& o,
                                          double on_point, double reach) {
   std::vector<std::pair<double, Vector3d>> found;
   for (const Plane& p : planes) {
     if (std::abs(p.normal.dot(o)) >= kCosSide) continue;
-    if (std::abs(p.distance(point)) <= on_point) return {};
+    if (std::abs(p.distance(point)) <= on_point) continue;  // the pick's own: snapped from as given
     double nearest = reach;
     Vector3d at = point;
     for (auto i : p.inliers) {
@@ -251,7 +252,7 @@ SnappedPoint snap_or_land(const CaseModel& model, const Vector3d& point, const V
   if (is_snapped(direct.feature)) return direct;
   const Vector3d o = outward.normalized();
   const double on_point = std::max(0.006, threshold);
-  std::vector<Vector3d> landings = landing_candidates(planes, L, point, o, on_point, 0.5 * options.search_radius_m);
+  std::vector<Vector3d> landings = landing_candidates(planes, L, point, o, on_point, options.search_radius_m);
   if (landings.empty() && planes.empty()) {  // nothing seen within reach: look twice as far
     const LocalPoints wide = model.local_points(point, 2 * options.search_radius_m);
     landings = landing_candidates(find_planes(wide, threshold, options.min_plane_points), wide, point, o,
@@ -293,7 +294,38 @@ LinePlanes planes_at_line(const std::vector<Plane>& planes, const LocalPoints& L
       found.side.push_back(&p);
     }
   }
+  // Two side planes within 30 degrees of each other meet far from the pick: one is a sliver of
+  // the other (the band of a rounded edge, a tilted fit of a few points), and moving onto both
+  // would carry the end away. The larger one is kept (planes come largest first).
+  std::vector<const Plane*> distinct;
+  for (const Plane* p : found.side) {
+    bool sliver = false;
+    for (const Plane* kept : distinct) sliver |= std::abs(p->normal.dot(kept->normal)) > std::cos(30.0 * M_PI / 180.0);
+    if (!sliver) distinct.push_back(p);
+  }
+  found.side.swap(distinct);
   return found;
+}
+
+// A facing plane ends the side planes: their points stop where the line crosses it (a box's
+// top at its end face, the floor at a wall). Side points well past the crossing (more than the
+// inlier band twice over, or the edge margin) mean the facing plane is not where the surface
+// ends - a few points fitted across a rounded edge or a band of mixed pixels, tilted 30 degrees
+// off the face it is not.
+bool side_runs_through(const Plane& facing, const std::vector<const Plane*>& side,
+                       const LocalPoints& L, const Vector3d& q, const Vector3d& o,
+                       double threshold, const SnapOptions& options) {
+  const double t = -facing.distance(q) / facing.normal.dot(o);
+  const double tolerance = std::max(2.0 * threshold, options.edge_margin_m);
+  std::size_t past = 0;
+  for (const Plane* p : side) {
+    const Vector3d along_edge = p->normal.cross(o).normalized();
+    for (auto i : p->inliers) {
+      const Vector3d rel = L.points[i] - q;
+      past += std::abs(rel.dot(along_edge)) <= 0.01 && rel.dot(o) > t + tolerance;
+    }
+  }
+  return past >= 10;
 }
 
 // Side planes: q moves perpendicular to o onto them (minimum-norm solution); their offsets'
@@ -427,6 +459,23 @@ SnapFeature edge_from_counts(const CaseModel& model, const EdgeCounts& counts, s
   return sides == 1 ? SnapFeature::Edge : SnapFeature::Corner;
 }
 
+// Whether the side planes end within `margin` of the pick along o. With enough points just
+// inside the end to count (the window), by the count (edge_from_counts): the farthest point
+// alone runs past a real end by the lateral noise and the mixed pixels - a pixel's footprint,
+// over a centimetre on a far or oblique surface - while a surface that goes on past the pick
+// counts to the edge of the neighbourhood, far beyond any margin. Too few to count: the
+// farthest point.
+bool end_within_margin(const EdgeCounts& counts, double m, double margin) {
+  if (counts.per_view.empty()) return false;
+  double window = 0, beyond = 0;
+  for (const auto& [view, e] : counts.per_view) {
+    window += e[0];
+    beyond += e[1];
+  }
+  if (window < 8) return counts.farthest < margin;
+  return -m + m * beyond / window < margin;
+}
+
 // Where the side planes' points end along o, near the line through q; views whose window is
 // mostly hidden (fewer than 6 points) are skipped. NotSnapped when the surface goes on past
 // the point (moved onto the side planes, across the line, but nothing fixes it along the line).
@@ -444,7 +493,7 @@ SnapFeature snap_to_side_edge(const CaseModel& model, const LocalPoints& L,
     counts = count_edge_points(model, wide, side, q, o, m, threshold, options.edge_follow_m, &foreign);
     points_used += wide.points.size();
   }
-  if (counts.farthest < options.edge_margin_m && !counts.per_view.empty())
+  if (end_within_margin(counts, m, options.edge_margin_m))
     return edge_from_counts(model, counts, side.size(), m, q, o, cov);
   return SnapFeature::NotSnapped;
 }
@@ -478,12 +527,11 @@ SnappedPoint snap_on_model(const CaseModel& model, const Vector3d& point,
   s.given = point;
   s.snapped = point;
   const LocalPoints L = model.local_points(point, options.search_radius_m);
+  const double threshold = std::max(options.plane_inlier_m, 2.5 * median(L.axial_sigma_m));
   s.points = L.points.size();
   const std::vector<std::uint32_t> seen = model.observing_views(point);
   s.views = seen.size();
   const Matrix3d pose_cov = pose_covariance_at(model, point, seen);
-  std::vector<double> sig(L.axial_sigma_m);
-  const double threshold = std::max(options.plane_inlier_m, 2.5 * median(sig));
   const std::vector<Plane> planes = find_planes(L, threshold, options.min_plane_points);
   s.planes = planes.size();
   if (outward && may_land) return snap_or_land(model, point, *outward, options, L, planes, threshold);
@@ -496,9 +544,11 @@ SnappedPoint snap_on_model(const CaseModel& model, const Vector3d& point,
   Matrix3d cov = pose_cov;
   const Vector3d o = outward->normalized();
   const double on_point = std::max(0.006, threshold);  // a side plane must pass through p
-  const LinePlanes at_line = planes_at_line(planes, L, point, o, on_point, options);
+  LinePlanes at_line = planes_at_line(planes, L, point, o, on_point, options);
   Vector3d q = point;
   if (!at_line.side.empty()) move_onto_side_planes(at_line.side, L, o, q, cov);
+  if (at_line.facing && side_runs_through(*at_line.facing, at_line.side, L, q, o, threshold, options))
+    at_line.facing = nullptr;  // not the end: the side planes' own end is counted instead
   if (at_line.facing) {
     const Plane& facing = *at_line.facing;
     const double t = -facing.distance(q) / facing.normal.dot(o);
