@@ -58,6 +58,15 @@ def normal_at(p):
     d=np.linalg.norm(C-p,axis=1); idx=np.argsort(d)[:30]
     n=N[idx]; n=n*np.sign(n@n[0])[:,None]; n=n.mean(0); return n/np.linalg.norm(n)
 rows=[]
+# A tape end the model lacks (a wall the flagged views alone saw, a part of a table never
+# seen) cannot be clicked: `locard measure` refuses a point more than 5 cm from the mesh, and
+# moving it onto the mesh's closest point would measure some other surface. Such rows are
+# reported apart, as "tape end off the model", and never counted within U.
+off_model=set()
+for r in refs:
+    for k in ('a','b'):
+        p=np.array(r[k],float)
+        if np.linalg.norm(onto_mesh(p)-p)>0.05: off_model.add(r['name'])
 for r in refs:
     a=np.array(r['a'],float); b=np.array(r['b'],float); d=b-a; d/=np.linalg.norm(d)
     for sgn in (+1,-1):
@@ -73,10 +82,12 @@ for r in refs:
         dist,U=float(m.group(1)),float(m.group(2)); err=dist-r['distance_m']
         snapped = 'not snapped' not in (m.group(3)+m.group(4))
         rows.append((r['name'],sgn,err,U,snapped,m.group(3)+'/'+m.group(4)))
-within=beyond=total=0
+within=beyond=total=off=0
 for name,sgn,err,U,sn,feat in rows:
     total+=1
     if err is None: print(f'{name:16s} {sgn:+d} FAILED {feat}'); continue
+    if name in off_model:
+        off+=1; print(f'{name:16s} {sgn:+d} error {1000*err:+7.1f} mm U {1000*U:5.1f} mm tape end off the model {feat}'); continue
     w = sn and abs(err)<=U; within+=w; beyond+= abs(err)>3*U
     print(f'{name:16s} {sgn:+d} error {1000*err:+7.1f} mm U {1000*U:5.1f} mm {"within" if w else ("not snapped" if not sn else "OUTSIDE")} {"(>3U)" if abs(err)>3*U else ""} {feat}')
-print(f'within U (both ends snapped): {within}/{total}; beyond 3U: {beyond}/{total}')
+print(f'within U (both ends snapped): {within}/{total}; beyond 3U: {beyond}/{total}; tape end off the model: {off}/{total}')

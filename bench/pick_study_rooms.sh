@@ -8,7 +8,7 @@ set -uo pipefail
 locard=$(realpath "$1"); work=$2; shift 2
 here=$(cd "$(dirname "$0")" && pwd)
 mkdir -p "$work"
-within=0; total=0; beyond=0
+within=0; total=0; beyond=0; off=0
 for seed in "$@"; do
   room=$work/room-$seed
   rm -rf "$room"; mkdir -p "$room"
@@ -23,5 +23,6 @@ for seed in "$@"; do
   if [[ $line =~ within\ U\ \(both\ ends\ snapped\):\ ([0-9]+)/([0-9]+)\;\ beyond\ 3U:\ ([0-9]+) ]]; then
     within=$((within + BASH_REMATCH[1])); total=$((total + BASH_REMATCH[2])); beyond=$((beyond + BASH_REMATCH[3]))
   fi
+  [[ $line =~ off\ the\ model:\ ([0-9]+) ]] && off=$((off + BASH_REMATCH[1]))
 done
-echo "all rooms: within U (both ends snapped) $within/$total; beyond 3U $beyond/$total"
+echo "all rooms: within U (both ends snapped) $within/$total; beyond 3U $beyond/$total; tape end off the model $off/$total"
