@@ -99,8 +99,8 @@ class MeshPicks {
 // 1.5 cm along the surface at right angles to the line, both ways, then onto the mesh where a
 // click lands. A row counts within U only with both ends snapped. None may be off by more than
 // 3 U (bed width's corner end was 11 mm off at U 2.2 mm while a sliver plane of the bed's top
-// carried it); at least 18 of the 24 within U (19 on 7 December 2026: the socket's centre is
-// never snapped, the chair seat's far corner is hidden).
+// carried it); at least 18 of the 24 within U (20 on 7 December 2026: the socket's centre is
+// never snapped, the chair seat's far corner is hidden from one side).
 void expect_picks_hold(const std::filesystem::path& scan, const std::filesystem::path& case_dir) {
   const CaseModel model = CaseModel::load(CaseFolder::open(case_dir, CaseAccess::Read));
   const MeshPicks picks(model.mesh());

@@ -526,7 +526,11 @@ SnappedPoint snap_on_model(const CaseModel& model, const Vector3d& point,
   SnappedPoint s;
   s.given = point;
   s.snapped = point;
-  const LocalPoints L = model.local_points(point, options.search_radius_m);
+  // Where the spot was seen sparsely (far, at grazing incidence: a box's top seen from just
+  // above it) the neighbourhood doubles, so that its faces hold enough points to be planes.
+  LocalPoints L = model.local_points(point, options.search_radius_m);
+  if (L.points.size() < 4 * options.min_plane_points)
+    L = model.local_points(point, 2 * options.search_radius_m);
   const double threshold = std::max(options.plane_inlier_m, 2.5 * median(L.axial_sigma_m));
   s.points = L.points.size();
   const std::vector<std::uint32_t> seen = model.observing_views(point);
