@@ -128,6 +128,26 @@ double plane_offset_variance(const Plane& p, const LocalPoints& L) {
   return p.rms * p.rms / n + (axial2 / n) / nv;
 }
 
+// The fitted plane's tilt, seen as an offset at x: a least-squares plane is known best at its
+// points' centroid, and its offset at x away from it varies by rms^2 r^T S^-1 r (the
+// regression's prediction variance), r the in-plane offset of x from the centroid and S the
+// points' in-plane scatter. A face end snapped at its edge - where the line meets an end face
+// near its top - sits well off the centroid of the face's points within reach.
+double plane_tilt_variance_at(const Plane& p, const LocalPoints& L, const Vector3d& x) {
+  Vector3d mean = Vector3d::Zero();
+  for (auto i : p.inliers) mean += L.points[i];
+  mean /= static_cast<double>(p.inliers.size());
+  const Vector3d u = p.normal.unitOrthogonal(), v = p.normal.cross(u);
+  Eigen::Matrix2d S = Eigen::Matrix2d::Zero();
+  for (auto i : p.inliers) {
+    const Eigen::Vector2d a((L.points[i] - mean).dot(u), (L.points[i] - mean).dot(v));
+    S += a * a.transpose();
+  }
+  const Eigen::Vector2d r((x - mean).dot(u), (x - mean).dot(v));
+  if (S.determinant() <= 0.0) return 0.0;
+  return p.rms * p.rms * r.dot(S.inverse() * r);
+}
+
 // Mean pose covariance of the observing views propagated to p (fully correlated).
 Matrix3d pose_covariance_at(const CaseModel& model, const Vector3d& p,
                             const std::vector<std::uint32_t>& views) {
@@ -558,7 +578,7 @@ SnappedPoint snap_on_model(const CaseModel& model, const Vector3d& point,
     const double t = -facing.distance(q) / facing.normal.dot(o);
     q += t * o;
     const double c = facing.normal.dot(o);
-    cov += o * o.transpose() * plane_offset_variance(facing, L) / (c * c);
+    cov += o * o.transpose() * (plane_offset_variance(facing, L) + plane_tilt_variance_at(facing, L, q)) / (c * c);
     const std::size_t sides = at_line.side.size();
     s.feature = sides == 0 ? SnapFeature::Face : (sides == 1 ? SnapFeature::Edge : SnapFeature::Corner);
   } else if (!at_line.side.empty()) {
