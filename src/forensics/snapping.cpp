@@ -205,6 +205,8 @@ namespace {
 // to face it (a wall, a box's end face), and the largest for it to lie along it (a side plane).
 const double kCosFacing = std::cos(35.0 * M_PI / 180.0);
 constexpr double kCosSide = 0.5;
+// How far across the measuring line (along the edge) a side plane's points count as the end's.
+constexpr double kEdgeBandM = 0.01;
 
 // Where a pick that is on no surface along the measuring direction may land. A click beside a
 // box's edge, on a face the scanner never saw (the mesh closes it), or a few millimetres off
@@ -266,14 +268,15 @@ namespace {
 // window's edge, lands where nothing fixes the end). The move is across the measuring line: it
 // changes neither the distance nor its uncertainty.
 SnappedPoint snap_or_land(const CaseModel& model, const Vector3d& point, const Vector3d& outward,
-                          const SnapOptions& options, const LocalPoints& L,
+                          const SnapOptions& options, const LocalPoints& L, double radius,
                           const std::vector<Plane>& planes, double threshold) {
   SnappedPoint direct = snap_on_model(model, point, outward, options, false);
   if (is_snapped(direct.feature)) return direct;
   const Vector3d o = outward.normalized();
   const double on_point = std::max(0.006, threshold);
   std::vector<Vector3d> landings = landing_candidates(planes, L, point, o, on_point, options.search_radius_m);
-  if (landings.empty() && planes.empty()) {  // nothing seen within reach: look twice as far
+  // Nothing seen within reach: look twice as far (unless L already did: a sparse spot).
+  if (landings.empty() && planes.empty() && radius < 2 * options.search_radius_m) {
     const LocalPoints wide = model.local_points(point, 2 * options.search_radius_m);
     landings = landing_candidates(find_planes(wide, threshold, options.min_plane_points), wide, point, o,
                                   on_point, options.search_radius_m);
@@ -342,7 +345,7 @@ bool side_runs_through(const Plane& facing, const std::vector<const Plane*>& sid
     const Vector3d along_edge = p->normal.cross(o).normalized();
     for (auto i : p->inliers) {
       const Vector3d rel = L.points[i] - q;
-      past += std::abs(rel.dot(along_edge)) <= 0.01 && rel.dot(o) > t + tolerance;
+      past += std::abs(rel.dot(along_edge)) <= kEdgeBandM && rel.dot(o) > t + tolerance;
     }
   }
   return past >= 10;
@@ -370,6 +373,16 @@ void move_onto_side_planes(const std::vector<const Plane*>& side, const LocalPoi
 struct EdgeCounts {
   std::map<std::uint32_t, std::array<double, 3>> per_view;
   double farthest = -std::numeric_limits<double>::infinity();
+  // The window's and the beyond's points over all views.
+  double window() const { return pooled(0); }
+  double beyond() const { return pooled(1); }
+
+ private:
+  double pooled(std::size_t k) const {
+    double total = 0;
+    for (const auto& [view, e] : per_view) total += e[k];
+    return total;
+  }
 };
 
 // Counts the side planes' points within `band` of the measuring line along the edge (and on
@@ -433,13 +446,9 @@ std::vector<bool> points_on_other_surfaces(const LocalPoints& wide, const std::v
 // along o and adds the variance along o to cov.
 SnapFeature edge_from_counts(const CaseModel& model, const EdgeCounts& counts, std::size_t sides,
                              double m, Vector3d& q, const Vector3d& o, Matrix3d& cov) {
-  double window = 0, beyond = 0;
+  const double window = counts.window(), beyond = counts.beyond();
   std::vector<double> steps;
-  for (const auto& [view, e] : counts.per_view) {
-    window += e[0];
-    beyond += e[1];
-    steps.push_back(e[2]);
-  }
+  for (const auto& [view, e] : counts.per_view) steps.push_back(e[2]);
   const double step = median(steps);
   const double lateral = model.noise().lateral_sigma_m(1.0);
   if (window < 8) {
@@ -487,13 +496,8 @@ SnapFeature edge_from_counts(const CaseModel& model, const EdgeCounts& counts, s
 // farthest point.
 bool end_within_margin(const EdgeCounts& counts, double m, double margin) {
   if (counts.per_view.empty()) return false;
-  double window = 0, beyond = 0;
-  for (const auto& [view, e] : counts.per_view) {
-    window += e[0];
-    beyond += e[1];
-  }
-  if (window < 8) return counts.farthest < margin;
-  return -m + m * beyond / window < margin;
+  if (counts.window() < 8) return counts.farthest < margin;
+  return -m + m * counts.beyond() / counts.window() < margin;
 }
 
 // Where the side planes' points end along o, near the line through q; views whose window is
@@ -504,10 +508,8 @@ SnapFeature snap_to_side_edge(const CaseModel& model, const LocalPoints& L,
                               double threshold, const SnapOptions& options, Vector3d& q,
                               Matrix3d& cov, std::size_t& points_used) {
   const double m = options.edge_window_m;
-  EdgeCounts counts = count_edge_points(model, L, side, q, o, m, threshold, 0.01, nullptr);
-  double window_total = 0;
-  for (const auto& [view, e] : counts.per_view) window_total += e[0];
-  if (counts.farthest < options.edge_margin_m && window_total < 8) {
+  EdgeCounts counts = count_edge_points(model, L, side, q, o, m, threshold, kEdgeBandM, nullptr);
+  if (counts.farthest < options.edge_margin_m && counts.window() < 8) {
     const LocalPoints wide = model.local_points(q, options.edge_follow_m);
     const std::vector<bool> foreign = points_on_other_surfaces(wide, side, threshold, options);
     counts = count_edge_points(model, wide, side, q, o, m, threshold, options.edge_follow_m, &foreign);
@@ -548,9 +550,12 @@ SnappedPoint snap_on_model(const CaseModel& model, const Vector3d& point,
   s.snapped = point;
   // Where the spot was seen sparsely (far, at grazing incidence: a box's top seen from just
   // above it) the neighbourhood doubles, so that its faces hold enough points to be planes.
-  LocalPoints L = model.local_points(point, options.search_radius_m);
-  if (L.points.size() < 4 * options.min_plane_points)
-    L = model.local_points(point, 2 * options.search_radius_m);
+  double radius = options.search_radius_m;
+  LocalPoints L = model.local_points(point, radius);
+  if (L.points.size() < 4 * options.min_plane_points) {
+    radius = 2 * options.search_radius_m;
+    L = model.local_points(point, radius);
+  }
   const double threshold = std::max(options.plane_inlier_m, 2.5 * median(L.axial_sigma_m));
   s.points = L.points.size();
   const std::vector<std::uint32_t> seen = model.observing_views(point);
@@ -558,7 +563,7 @@ SnappedPoint snap_on_model(const CaseModel& model, const Vector3d& point,
   const Matrix3d pose_cov = pose_covariance_at(model, point, seen);
   const std::vector<Plane> planes = find_planes(L, threshold, options.min_plane_points);
   s.planes = planes.size();
-  if (outward && may_land) return snap_or_land(model, point, *outward, options, L, planes, threshold);
+  if (outward && may_land) return snap_or_land(model, point, *outward, options, L, radius, planes, threshold);
   if (!outward) return snap_without_direction(model, s, L, planes, pose_cov);
   if (planes.empty()) {  // nothing to snap to across the line: as picked
     s.feature = SnapFeature::NotSnapped;
