@@ -386,7 +386,9 @@ async function mainTest() {
         await page.evaluate((name) => window.locardViewer.loadSimulation(name), simulation);
         assert.ok(await page.isVisible('#sim-banner'), 'the ILLUSTRATIVE SIMULATION banner is shown');
         const t1 = await page.evaluate(() => { window.locardViewer.playSimulation(true); return window.locardViewer.simulationTime(); });
-        await page.waitForTimeout(1200);
+        // The clock advances at most 0.1 s per drawn frame: wait for frames, not for wall time.
+        await page.waitForFunction((t) => window.locardViewer.simulationTime() > t + 0.1, t1, { timeout: 120000 })
+          .catch(() => {});
         const t2 = await page.evaluate(() => window.locardViewer.simulationTime());
         log(`simulation: mixer time ${t1.toFixed(3)} s -> ${t2.toFixed(3)} s`);
         assert.ok(t2 > t1 + 0.1, `the simulation plays (mixer time ${t1} -> ${t2})`);
