@@ -150,9 +150,16 @@ TEST(BedroomTableOne, EveryDimensionWithinBoundsAndItsUncertainty) {
     const double error = row["error_m"], u = row["expanded_uncertainty_m"];
     std::printf("%-16s real %.4f model %.4f error %+6.1f mm U %.1f mm\n", name.c_str(),
                 row["real_m"].get<double>(), row["model_m"].get<double>(), 1000 * error, 1000 * u);
-    EXPECT_LE(std::abs(error), name == "Room width" ? 0.010 : 0.005) << name;
+    // An end fixed by the outermost of a few points (the chair seat's far corner, hidden by its
+    // back) is half a pixel's footprint beyond it, uncertain by a footprint (here 18 mm): held
+    // to 1 cm and its U to 3 cm.
+    const bool outermost = row["measurement"]["a"]["feature"] == "edge (outermost point)" ||
+                           row["measurement"]["b"]["feature"] == "edge (outermost point)" ||
+                           row["measurement"]["a"]["feature"] == "corner (outermost point)" ||
+                           row["measurement"]["b"]["feature"] == "corner (outermost point)";
+    EXPECT_LE(std::abs(error), name == "Room width" || outermost ? 0.010 : 0.005) << name;
     EXPECT_LE(std::abs(error), u) << name << ": error outside its stated uncertainty";
-    EXPECT_LT(u, 0.02) << name << ": an uncertainty this large says nothing";
+    EXPECT_LT(u, outermost ? 0.03 : 0.02) << name << ": an uncertainty this large says nothing";
   }
   EXPECT_TRUE(verify_case(dir / "case").ok());
   expect_picks_hold(dir / "scan", dir / "case");

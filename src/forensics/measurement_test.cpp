@@ -65,19 +65,26 @@ Isometry3d look_at(const Vector3d& eye, const Vector3d& target) {
   return T;
 }
 
-// The crate in a room as seen by seven views of `kinect` on an arc of radius `distance` at
-// `eye_height`, every depth image written under the scratch folder `tag`.
-CaseModel* crate_model(const sim::KinectModel& kinect, const SensorNoiseModel& noise,
-                       double distance, double eye_height, const std::string& tag) {
+sim::SceneObject box(const std::string& name, const Vector3d& center, const Vector3d& size) {
+  sim::SceneObject b;
+  b.name = name;
+  b.center = center;
+  b.size = size;
+  return b;
+}
+
+// `objects` in a room as seen by seven views of `kinect` on an arc of radius `distance` at
+// `eye_height` looking at (0, 0, 0.3), every depth image written under the scratch folder `tag`.
+// The model's mesh shows `meshed` where given (a fusion that rounded something away), else
+// what the views saw.
+CaseModel* scene_model(const std::vector<sim::SceneObject>& objects, const sim::KinectModel& kinect,
+                       const SensorNoiseModel& noise, double distance, double eye_height,
+                       const std::string& tag, const std::vector<sim::SceneObject>* meshed = nullptr) {
   const fs::path dir = test::scratch_dir() / tag;
   fs::create_directories(dir);
   sim::Scene scene;
   scene.room.size = {2 * distance + 1.5, 2 * distance + 1.5, 2.4};
-  sim::SceneObject crate;
-  crate.name = "crate";
-  crate.center = {0.0, 0.0, 0.5 * kHeight};
-  crate.size = {kLength, kWidth, kHeight};
-  scene.objects.push_back(crate);
+  scene.objects = objects;
   const sim::ViewRenderer renderer(sim::build_scene_mesh(scene));
   std::vector<ViewRecord> views;
   for (int k = 0; k < 7; ++k) {
@@ -89,8 +96,17 @@ CaseModel* crate_model(const sim::KinectModel& kinect, const SensorNoiseModel& n
     write_png(v.depth_path, renderer.render(kinect, v.T_world_camera, 11, static_cast<std::uint64_t>(k)).depth);
     views.push_back(v);
   }
-  return new CaseModel(densify(renderer.scene_mesh().mesh, 0.02), views, kinect.intrinsics,
+  sim::Scene shown = scene;
+  if (meshed) shown.objects = *meshed;
+  return new CaseModel(densify(sim::build_scene_mesh(shown).mesh, 0.02), views, kinect.intrinsics,
                        kinect.depth_scale, noise, 0.01);
+}
+
+// The crate on the floor, as scene_model sees it.
+CaseModel* crate_model(const sim::KinectModel& kinect, const SensorNoiseModel& noise,
+                       double distance, double eye_height, const std::string& tag) {
+  return scene_model({box("crate", {0.0, 0.0, 0.5 * kHeight}, {kLength, kWidth, kHeight})}, kinect,
+                     noise, distance, eye_height, tag);
 }
 
 class Snapping : public ::testing::Test {
@@ -196,6 +212,59 @@ TEST_F(Snapping, WithoutADirectionAPointGoesOntoTheNearestPlane) {
   EXPECT_NEAR(p.snapped.y(), -0.5 * kWidth, 0.004);
   EXPECT_GE(p.views, 3u);
   EXPECT_THROW(snap_point(model(), {0.0, -0.8, 0.3}), InputError);  // in the air: off the model
+}
+
+// A bed between a headboard and a footboard (5 cm thick, 0.6 m high) whose sides are flush with
+// the bed's: the bed's front side and the boards' are one plane, running on past the boards'
+// faces. The top's front edge measured from board to board, the picks moved 1.5 cm along the
+// surface at right angles to the line - onto the top, up the boards' faces: each end is the
+// board's face, where the top stops. The front side going on is the boards', not a reason to
+// leave the end unsnapped (the bedroom's bed length was, with the pick on its headboard).
+// Picks moved down the front side are not asserted: at the footboard the views see its face
+// too obliquely near that corner to find it there (docs/forensics.md, seen and not fixed).
+TEST(SnappingAtAFlushSide, TheTopEndsAtTheFaceItMeets) {
+  constexpr double kBedLength = 0.8, kBedHeight = 0.3, kBoard = 0.05;
+  const double board_x = 0.5 * (kBedLength + kBoard);
+  const std::unique_ptr<CaseModel> model(scene_model(
+      {box("bed", {0.0, 0.0, 0.5 * kBedHeight}, {kBedLength, kWidth, kBedHeight}),
+       box("headboard", {board_x, 0.0, 0.3}, {kBoard, kWidth, 0.6}),
+       box("footboard", {-board_x, 0.0, 0.3}, {kBoard, kWidth, 0.6})},
+      sim::KinectModel::kinect_v2(), SensorNoiseModel{}, 1.4, 1.2, "bed-boards"));
+  const Vector3d a{-0.5 * kBedLength, -0.5 * kWidth, kBedHeight}, b{0.5 * kBedLength, -0.5 * kWidth, kBedHeight};
+  for (const Vector3d& moved : {Vector3d{0.0, 0.015, 0.0}, Vector3d{0.0, 0.0, 0.015}}) {
+    const auto m = measure_point_to_point(*model, a + moved, b + moved);
+    for (const SnappedPoint* end : {&m.a, &m.b})
+      EXPECT_TRUE(end->feature == SnapFeature::Edge || end->feature == SnapFeature::Corner)
+          << to_string(end->feature) << ", picks moved " << moved.transpose();
+    expect_measures(m, kBedLength, "bed top from board to board");
+  }
+}
+
+// A corner the fusion rounded away: the views see the crate whole, the model's mesh shows it
+// 2.5 cm short at +x. A click at the end the mesh shows is 2.8 cm short of the crate's, and its
+// end snaps to the edge the depth points count there (the mesh stands 2.5 cm off it). The same
+// click on a model that shows the crate whole is a point 2.8 cm inside the top - a stain beside
+// an edge, say - and is not carried to the edge.
+TEST(SnappingOnARoundedModel, AnEdgeTheMeshLacksIsStillTheEnd) {
+  const sim::SceneObject crate = box("crate", {0.0, 0.0, 0.5 * kHeight}, {kLength, kWidth, kHeight});
+  const double cut = 0.025;
+  const std::vector<sim::SceneObject> rounded = {
+      box("crate", {-0.5 * cut, 0.0, 0.5 * kHeight}, {kLength - cut, kWidth, kHeight})};
+  const std::unique_ptr<CaseModel> model(scene_model({crate}, sim::KinectModel::kinect_v2(), SensorNoiseModel{},
+                                                     1.4, 1.2, "rounded", &rounded));
+  const Vector3d a{-0.39, 0.05, kHeight}, b{0.5 * kLength - cut - 0.003, 0.05, kHeight};
+  const auto m = measure_point_to_point(*model, a, b);
+  EXPECT_TRUE(m.b.feature == SnapFeature::Edge || m.b.feature == SnapFeature::Corner) << to_string(m.b.feature);
+  // Counted 2.8 cm beyond the click from the 6 mm window behind it: the count's own noise
+  // makes U wider than a counted edge at the click (under 15 mm).
+  const double error = m.distance_m - kLength;
+  EXPECT_LE(std::abs(error), m.expanded_uncertainty_m) << error << " m";
+  EXPECT_LT(std::abs(error), 0.006);
+  EXPECT_LT(m.expanded_uncertainty_m, 0.025);
+  const std::unique_ptr<CaseModel> whole(scene_model({crate}, sim::KinectModel::kinect_v2(), SensorNoiseModel{},
+                                                     1.4, 1.2, "whole"));
+  const auto inside = measure_point_to_point(*whole, a, b);
+  EXPECT_EQ(inside.b.feature, SnapFeature::NotSnapped) << "snapped " << (inside.b.snapped - b).norm() << " m away";
 }
 
 TEST(SnapFeatureNames, EveryFeatureHasItsName) {

@@ -271,7 +271,11 @@ SnappedPoint snap_or_land(const CaseModel& model, const Vector3d& point, const V
                           const SnapOptions& options, const LocalPoints& L, double radius,
                           const std::vector<Plane>& planes, double threshold) {
   SnappedPoint direct = snap_on_model(model, point, outward, options, false);
-  if (is_snapped(direct.feature)) return direct;
+  // An end fixed only by the outermost of too few points to count is the weakest snap: a
+  // landing beside it (the same place along the line) that counts its edge or meets a face is
+  // better evidence of the same end.
+  auto by_outermost = [](SnapFeature f) { return f == SnapFeature::EdgeOutermost || f == SnapFeature::CornerOutermost; };
+  if (is_snapped(direct.feature) && !by_outermost(direct.feature)) return direct;
   const Vector3d o = outward.normalized();
   const double on_point = std::max(0.006, threshold);
   std::vector<Vector3d> landings = landing_candidates(planes, L, point, o, on_point, options.search_radius_m);
@@ -283,7 +287,7 @@ SnappedPoint snap_or_land(const CaseModel& model, const Vector3d& point, const V
   }
   for (const Vector3d& landed : landings) {
     SnappedPoint moved = snap_on_model(model, landed, outward, options, false);
-    if (!is_snapped(moved.feature)) continue;
+    if (!is_snapped(moved.feature) || (is_snapped(direct.feature) && by_outermost(moved.feature))) continue;
     moved.given = point;
     return moved;
   }
@@ -332,23 +336,50 @@ LinePlanes planes_at_line(const std::vector<Plane>& planes, const LocalPoints& L
 
 // A facing plane ends the side planes: their points stop where the line crosses it (a box's
 // top at its end face, the floor at a wall). Side points well past the crossing (more than the
-// inlier band twice over, or the edge margin) mean the facing plane is not where the surface
+// inlier band twice over, or the edge margin) mean the facing plane is not where that side
 // ends - a few points fitted across a rounded edge or a band of mixed pixels, tilted 30 degrees
-// off the face it is not.
-bool side_runs_through(const Plane& facing, const std::vector<const Plane*>& side,
-                       const LocalPoints& L, const Vector3d& q, const Vector3d& o,
-                       double threshold, const SnapOptions& options) {
+// off the face it is not - or that the side is a face flush with another that goes on (a bed's
+// side and its headboard's, one plane). Split: the side planes that run on past it, and those
+// that reach it and stop there.
+struct SidesAtFacing {
+  std::vector<const Plane*> run_on, stop;
+};
+
+SidesAtFacing sides_at_facing(const Plane& facing, const std::vector<const Plane*>& side,
+                              const LocalPoints& L, const Vector3d& q, const Vector3d& o,
+                              double threshold, const SnapOptions& options) {
   const double t = -facing.distance(q) / facing.normal.dot(o);
   const double tolerance = std::max(2.0 * threshold, options.edge_margin_m);
-  std::size_t past = 0;
+  SidesAtFacing found;
   for (const Plane* p : side) {
     const Vector3d along_edge = p->normal.cross(o).normalized();
+    std::size_t past = 0;
+    double farthest = -std::numeric_limits<double>::infinity();
     for (auto i : p->inliers) {
       const Vector3d rel = L.points[i] - q;
-      past += std::abs(rel.dot(along_edge)) <= kEdgeBandM && rel.dot(o) > t + tolerance;
+      if (std::abs(rel.dot(along_edge)) > kEdgeBandM) continue;
+      past += rel.dot(o) > t + tolerance;
+      farthest = std::max(farthest, rel.dot(o));
     }
+    if (past >= 10)
+      found.run_on.push_back(p);
+    else if (farthest >= t - tolerance)
+      found.stop.push_back(p);
   }
-  return past >= 10;
+  return found;
+}
+
+// Whether the facing plane is this end, and which side planes end there: where some side runs
+// on past the facing plane, it is the end only if another side reaches it and stops (the bed's
+// top at the headboard); the one running on is then not this end's edge.
+bool facing_ends_sides(const Plane& facing, std::vector<const Plane*>& side, const LocalPoints& L,
+                       const Vector3d& q, const Vector3d& o, double threshold,
+                       const SnapOptions& options) {
+  SidesAtFacing split = sides_at_facing(facing, side, L, q, o, threshold, options);
+  if (split.run_on.empty()) return true;
+  if (split.stop.empty()) return false;
+  side.swap(split.stop);
+  return true;
 }
 
 // Side planes: q moves perpendicular to o onto them (minimum-norm solution); their offsets'
@@ -385,15 +416,31 @@ struct EdgeCounts {
   }
 };
 
+// The outermost point along o, leaving out one or two strays beyond a gap: a mixed pixel past
+// the edge decides "the surface goes on" where too few points lie just inside the end to count
+// them (a chair's seat seen past its back). The gap must exceed three sampling steps (a surface
+// that goes on is sampled about every step, in every view) and twice the edge margin.
+double outermost_supported(std::vector<std::pair<double, double>> reach, double margin) {
+  if (reach.empty()) return -std::numeric_limits<double>::infinity();
+  std::sort(reach.begin(), reach.end(), [](const auto& a, const auto& b) { return a.first > b.first; });
+  std::vector<double> steps;
+  for (const auto& r : reach) steps.push_back(r.second);
+  const double gap = std::max(3.0 * median(steps), 2.0 * margin);
+  for (std::size_t strays = 1; strays <= 2 && strays + 3 <= reach.size(); ++strays)
+    if (reach[strays - 1].first - reach[strays].first > gap) return reach[strays].first;
+  return reach.front().first;
+}
+
 // Counts the side planes' points within `band` of the measuring line along the edge (and on
 // the plane). `foreign` null: each plane's inliers; else every point of `pts` on a side plane
 // that is not marked foreign (a straight edge followed farther along itself, when something
 // hides it right at the measuring line: a handle in front of a door).
 EdgeCounts count_edge_points(const CaseModel& model, const LocalPoints& pts,
                              const std::vector<const Plane*>& side, const Vector3d& q,
-                             const Vector3d& o, double m, double threshold, double band,
-                             const std::vector<bool>* foreign) {
+                             const Vector3d& o, double m, double margin, double threshold,
+                             double band, const std::vector<bool>* foreign) {
   EdgeCounts counts;
+  std::vector<std::pair<double, double>> reach;  // (along o, sampling step) of each point
   const CameraIntrinsics& K = model.intrinsics();
   for (const Plane* p : side) {
     const Vector3d along_edge = p->normal.cross(o).normalized();
@@ -407,7 +454,7 @@ EdgeCounts count_edge_points(const CaseModel& model, const LocalPoints& pts,
         const Vector3d ray = pts.points[i] - model.views()[pts.view[i]].T_world_camera.translation();
         step = ray.norm() / K.fx / std::max(0.25, std::abs(ray.normalized().dot(p->normal)));
       }
-      counts.farthest = std::max(counts.farthest, s_along);
+      reach.emplace_back(s_along, step);
       auto& e = counts.per_view[pts.view[i]];
       if (s_along >= -2 * m && s_along < -m) e[0] += 1;
       if (s_along >= -m) e[1] += 1;
@@ -418,6 +465,7 @@ EdgeCounts count_edge_points(const CaseModel& model, const LocalPoints& pts,
     else
       for (auto i : p->inliers) visit(i);
   }
+  counts.farthest = outermost_supported(std::move(reach), margin);
   return counts;
 }
 
@@ -488,16 +536,26 @@ SnapFeature edge_from_counts(const CaseModel& model, const EdgeCounts& counts, s
   return sides == 1 ? SnapFeature::Edge : SnapFeature::Corner;
 }
 
-// Whether the side planes end within `margin` of the pick along o. With enough points just
+// Whether the side planes end within reach of the pick along o. With enough points just
 // inside the end to count (the window), by the count (edge_from_counts): the farthest point
 // alone runs past a real end by the lateral noise and the mixed pixels - a pixel's footprint,
 // over a centimetre on a far or oblique surface - while a surface that goes on past the pick
-// counts to the edge of the neighbourhood, far beyond any margin. Too few to count: the
-// farthest point.
-bool end_within_margin(const EdgeCounts& counts, double m, double margin) {
+// counts to the edge of the neighbourhood. Too few to count: the farthest point.
+// The reach is the margin, plus how far the model's surface stands off the end found: a click
+// lands on the mesh, and fusion rounds a thin slab's corner away by centimetres (a table top
+// 4 cm thick, seen from above by a noisy sensor), so a click on what the model shows of the
+// corner is that far short of it. A surface that goes on past the pick ends, by the count, at
+// the neighbourhood's boundary, on the mesh: no more than the margin. Only a counted end
+// reaches past the margin: a farthest point of a few dozen points (a plane fitted 45 degrees
+// off to the bulge the mesh shows at a far table's corner) is not evidence enough, nor one
+// that stops more than the margin short of the pick: the surface the pick is on runs on past
+// where these few points end (a side plane seen by one view, 5 cm back).
+bool end_within_reach(const CaseModel& model, const EdgeCounts& counts, double m, double margin,
+                      const Vector3d& q, const Vector3d& o) {
   if (counts.per_view.empty()) return false;
-  if (counts.window() < 8) return counts.farthest < margin;
-  return -m + m * counts.beyond() / counts.window() < margin;
+  if (counts.window() < 8) return std::abs(counts.farthest) < margin;
+  const double end = -m + m * counts.beyond() / counts.window();
+  return end < margin || end < margin + model.distance_to_mesh(q + end * o);
 }
 
 // Where the side planes' points end along o, near the line through q; views whose window is
@@ -508,14 +566,16 @@ SnapFeature snap_to_side_edge(const CaseModel& model, const LocalPoints& L,
                               double threshold, const SnapOptions& options, Vector3d& q,
                               Matrix3d& cov, std::size_t& points_used) {
   const double m = options.edge_window_m;
-  EdgeCounts counts = count_edge_points(model, L, side, q, o, m, threshold, kEdgeBandM, nullptr);
+  EdgeCounts counts =
+      count_edge_points(model, L, side, q, o, m, options.edge_margin_m, threshold, kEdgeBandM, nullptr);
   if (counts.farthest < options.edge_margin_m && counts.window() < 8) {
     const LocalPoints wide = model.local_points(q, options.edge_follow_m);
     const std::vector<bool> foreign = points_on_other_surfaces(wide, side, threshold, options);
-    counts = count_edge_points(model, wide, side, q, o, m, threshold, options.edge_follow_m, &foreign);
+    counts = count_edge_points(model, wide, side, q, o, m, options.edge_margin_m, threshold,
+                               options.edge_follow_m, &foreign);
     points_used += wide.points.size();
   }
-  if (end_within_margin(counts, m, options.edge_margin_m))
+  if (end_within_reach(model, counts, m, options.edge_margin_m, q, o))
     return edge_from_counts(model, counts, side.size(), m, q, o, cov);
   return SnapFeature::NotSnapped;
 }
@@ -576,7 +636,7 @@ SnappedPoint snap_on_model(const CaseModel& model, const Vector3d& point,
   LinePlanes at_line = planes_at_line(planes, L, point, o, on_point, options);
   Vector3d q = point;
   if (!at_line.side.empty()) move_onto_side_planes(at_line.side, L, o, q, cov);
-  if (at_line.facing && side_runs_through(*at_line.facing, at_line.side, L, q, o, threshold, options))
+  if (at_line.facing && !facing_ends_sides(*at_line.facing, at_line.side, L, q, o, threshold, options))
     at_line.facing = nullptr;  // not the end: the side planes' own end is counted instead
   if (at_line.facing) {
     const Plane& facing = *at_line.facing;
