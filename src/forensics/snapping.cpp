@@ -263,6 +263,10 @@ SnappedPoint snap_point(const CaseModel& model, const Vector3d& point,
 
 namespace {
 
+bool by_outermost_point(SnapFeature feature) {
+  return feature == SnapFeature::EdgeOutermost || feature == SnapFeature::CornerOutermost;
+}
+
 // Not snapped where it was picked: landing on a surface nearby. Nearest landing first; the
 // first from which the end snaps is taken (a spurious plane of mixed pixels, or a wall behind a
 // window's edge, lands where nothing fixes the end). The move is across the measuring line: it
@@ -274,8 +278,7 @@ SnappedPoint snap_or_land(const CaseModel& model, const Vector3d& point, const V
   // An end fixed only by the outermost of too few points to count is the weakest snap: a
   // landing beside it (the same place along the line) that counts its edge or meets a face is
   // better evidence of the same end.
-  auto by_outermost = [](SnapFeature f) { return f == SnapFeature::EdgeOutermost || f == SnapFeature::CornerOutermost; };
-  if (is_snapped(direct.feature) && !by_outermost(direct.feature)) return direct;
+  if (is_snapped(direct.feature) && !by_outermost_point(direct.feature)) return direct;
   const Vector3d o = outward.normalized();
   const double on_point = std::max(0.006, threshold);
   std::vector<Vector3d> landings = landing_candidates(planes, L, point, o, on_point, options.search_radius_m);
@@ -287,7 +290,8 @@ SnappedPoint snap_or_land(const CaseModel& model, const Vector3d& point, const V
   }
   for (const Vector3d& landed : landings) {
     SnappedPoint moved = snap_on_model(model, landed, outward, options, false);
-    if (!is_snapped(moved.feature) || (is_snapped(direct.feature) && by_outermost(moved.feature))) continue;
+    if (!is_snapped(moved.feature) || (is_snapped(direct.feature) && by_outermost_point(moved.feature)))
+      continue;
     moved.given = point;
     return moved;
   }
