@@ -306,15 +306,20 @@ struct LinePlanes {
   std::vector<const Plane*> side;
 };
 
-LinePlanes planes_at_line(const std::vector<Plane>& planes, const LocalPoints& L,
-                          const Vector3d& point, const Vector3d& o, double on_point,
-                          const SnapOptions& options) {
+LinePlanes planes_at_line(const CaseModel& model, const std::vector<Plane>& planes,
+                          const LocalPoints& L, const Vector3d& point, const Vector3d& o,
+                          double on_point, const SnapOptions& options) {
   LinePlanes found;
   for (const Plane& p : planes) {
     const double c = p.normal.dot(o);
     if (std::abs(c) >= kCosFacing) {
       const double t = -p.distance(point) / c;
       if (std::abs(t) > options.max_snap_distance_m) continue;
+      // Beyond the pick, a face is in reach as an edge is (end_within_reach): within the margin,
+      // or as far as the model's surface stands off it - else it is something behind the end
+      // the click was on (a wall 2.9 cm behind a table's end).
+      if (t > options.edge_margin_m && t > options.edge_margin_m + model.distance_to_mesh(point + t * o))
+        continue;
       // It must have points where the line through p along o crosses it.
       const Vector3d x = point + t * o;
       std::size_t near_line = 0;
@@ -637,7 +642,7 @@ SnappedPoint snap_on_model(const CaseModel& model, const Vector3d& point,
   Matrix3d cov = pose_cov;
   const Vector3d o = outward->normalized();
   const double on_point = std::max(0.006, threshold);  // a side plane must pass through p
-  LinePlanes at_line = planes_at_line(planes, L, point, o, on_point, options);
+  LinePlanes at_line = planes_at_line(model, planes, L, point, o, on_point, options);
   Vector3d q = point;
   if (!at_line.side.empty()) move_onto_side_planes(at_line.side, L, o, q, cov);
   if (at_line.facing && !facing_ends_sides(*at_line.facing, at_line.side, L, q, o, threshold, options))
