@@ -298,6 +298,17 @@ SnappedPoint snap_or_land(const CaseModel& model, const Vector3d& point, const V
   return direct;
 }
 
+// Whether an end found `along` o from `from` is within reach of the click there: within the
+// edge margin, or as far beyond it as the model's surface stands off the end - a click lands on
+// the mesh, and fusion rounds a thin slab's corner away by centimetres (a table top 4 cm thick
+// seen from above by a noisy sensor), so a click on what the model shows is that far short.
+// What the mesh does show beyond the margin (a wall 2.9 cm behind a table's end, a surface
+// going on to the neighbourhood's boundary) is not the end the click was on.
+bool within_reach(const CaseModel& model, const Vector3d& from, const Vector3d& o, double along,
+                  double margin) {
+  return along <= margin || along < margin + model.distance_to_mesh(from + along * o);
+}
+
 // The planes that fix an end measured along o: the largest one facing the line (crossed by it
 // where it has points, within the snap distance) and those the line runs along through the
 // point (side planes: their edge along o is the end).
@@ -315,11 +326,7 @@ LinePlanes planes_at_line(const CaseModel& model, const std::vector<Plane>& plan
     if (std::abs(c) >= kCosFacing) {
       const double t = -p.distance(point) / c;
       if (std::abs(t) > options.max_snap_distance_m) continue;
-      // Beyond the pick, a face is in reach as an edge is (end_within_reach): within the margin,
-      // or as far as the model's surface stands off it - else it is something behind the end
-      // the click was on (a wall 2.9 cm behind a table's end).
-      if (t > options.edge_margin_m && t > options.edge_margin_m + model.distance_to_mesh(point + t * o))
-        continue;
+      if (!within_reach(model, point, o, t, options.edge_margin_m)) continue;
       // It must have points where the line through p along o crosses it.
       const Vector3d x = point + t * o;
       std::size_t near_line = 0;
@@ -549,22 +556,16 @@ SnapFeature edge_from_counts(const CaseModel& model, const EdgeCounts& counts, s
 // inside the end to count (the window), by the count (edge_from_counts): the farthest point
 // alone runs past a real end by the lateral noise and the mixed pixels - a pixel's footprint,
 // over a centimetre on a far or oblique surface - while a surface that goes on past the pick
-// counts to the edge of the neighbourhood. Too few to count: the farthest point.
-// The reach is the margin, plus how far the model's surface stands off the end found: a click
-// lands on the mesh, and fusion rounds a thin slab's corner away by centimetres (a table top
-// 4 cm thick, seen from above by a noisy sensor), so a click on what the model shows of the
-// corner is that far short of it. A surface that goes on past the pick ends, by the count, at
-// the neighbourhood's boundary, on the mesh: no more than the margin. Only a counted end
-// reaches past the margin: a farthest point of a few dozen points (a plane fitted 45 degrees
-// off to the bulge the mesh shows at a far table's corner) is not evidence enough, nor one
-// that stops more than the margin short of the pick: the surface the pick is on runs on past
-// where these few points end (a side plane seen by one view, 5 cm back).
+// counts to the edge of the neighbourhood (within_reach). Too few to count: the farthest point,
+// within the margin either way - a farthest point of a few dozen points (a plane fitted 45
+// degrees off to the bulge the mesh shows at a far table's corner) is not evidence enough to
+// reach past it, nor one that stops more than the margin short of the pick: the surface the
+// pick is on runs on past where these few points end (a side plane seen by one view, 5 cm back).
 bool end_within_reach(const CaseModel& model, const EdgeCounts& counts, double m, double margin,
                       const Vector3d& q, const Vector3d& o) {
   if (counts.per_view.empty()) return false;
   if (counts.window() < 8) return std::abs(counts.farthest) < margin;
-  const double end = -m + m * counts.beyond() / counts.window();
-  return end < margin || end < margin + model.distance_to_mesh(q + end * o);
+  return within_reach(model, q, o, -m + m * counts.beyond() / counts.window(), margin);
 }
 
 // Where the side planes' points end along o, near the line through q; views whose window is
