@@ -65,6 +65,8 @@ struct TripodMotion {
   // it (its ring's, camera frame); tilt and roll are then held to them.
   std::optional<Eigen::Vector3d> hinge_axis;
   Eigen::Vector3d held_camera_axis = Eigen::Vector3d::Zero();
+  // The tripod fit of the views so far (their order), where one holds.
+  std::optional<TripodFit> fit;
   Eigen::Matrix3d on_hinge(const Eigen::Matrix3d& R) const {
     return hinge_axis ? onto_ring(R, *hinge_axis, held_camera_axis) : R;
   }
@@ -155,7 +157,8 @@ std::optional<Eigen::Vector3d> fitted_pivot(const AlignmentState& s,
 void hold_to_fit(TripodMotion& m, const AlignmentState& s, const std::vector<std::size_t>& views) {
   std::vector<Eigen::Matrix3d> R;
   for (std::size_t f : views) R.push_back(s.tracked_pose(f).linear());
-  const std::optional<TripodFit> fit = fit_tripod(R);
+  m.fit = fit_tripod(R);
+  const std::optional<TripodFit>& fit = m.fit;
   if (!fit) return;
   const TripodFitOptions limits;
   std::optional<std::size_t> first_on_ring;
@@ -351,7 +354,18 @@ class TripodSearch {
                     tracking_method(o_), tripod_prior(m_, init, o_, strength, hinge_));
     };
     IcpResult light = run(PriorStrength::Light);
-    if (rotation_difference_deg(init, light.T_target_source) > kMaxWanderDeg) return;
+    if (rotation_difference_deg(init, light.T_target_source) > kMaxWanderDeg) {
+      // The light prior let the data turn the view off its guess's basin: data that do not fix
+      // the turn (one wall seen aslant) or a wrong guess. Within a ring, where the guesses are
+      // the tripod's turns, the firm prior's result is kept as a last resort, for when no guess
+      // holds with the light one (generated room 33's view 27). Not where a ring starts: its
+      // guesses are tilts 10 degrees apart, and the firm prior would hold a wrong one (room 2).
+      if (!forward_only) return;
+      IcpResult firm = run(PriorStrength::Firm);
+      if (rotation_difference_deg(init, firm.T_target_source) <= kMaxWanderDeg)
+        last_resorts_.push_back({std::move(firm), label, init, max_turn_deg, forward_only, hinge_});
+      return;
+    }
     const bool slid =
         !tripod_violation(light.T_target_source, T_last_, m_, o_, max_turn_deg, forward_only)
              .empty();
@@ -362,13 +376,15 @@ class TripodSearch {
       best_hinge_ = hinge_;
     }
     if (!slid) return;
-    IcpResult firm = run(PriorStrength::Firm);
-    if (rotation_difference_deg(init, firm.T_target_source) > kMaxWanderDeg) return;
-    if (consider(std::move(firm), label, max_turn_deg, forward_only)) {
-      best_init_ = init;
-      best_is_firm_ = true;
-      best_hinge_ = hinge_;
-    }
+    take_firm(run(PriorStrength::Firm), label, init, max_turn_deg, forward_only, hinge_);
+  }
+
+  // The firm results kept as a last resort, where no guess was accepted so far.
+  void take_last_resorts() {
+    if (accepted_) return;
+    for (LastResort& r : last_resorts_)
+      take_firm(std::move(r.result), r.label, r.init, r.max_turn_deg, r.forward_only, r.hinge);
+    last_resorts_.clear();
   }
 
   // The light prior's winner, checked against the firm prior from the same guess: where the
@@ -424,6 +440,16 @@ class TripodSearch {
     return false;
   }
 
+  void take_firm(IcpResult firm, const char* label, const Isometry3d& init, double max_turn_deg,
+                 bool forward_only, Hinge hinge) {
+    if (rotation_difference_deg(init, firm.T_target_source) > kMaxWanderDeg) return;
+    if (consider(std::move(firm), label, max_turn_deg, forward_only)) {
+      best_init_ = init;
+      best_is_firm_ = true;
+      best_hinge_ = hinge;
+    }
+  }
+
   void hold(Hinge hinge) { hinge_ = hinge; }
   bool accepted() const { return accepted_; }
   const Isometry3d& best_init() const { return best_init_; }
@@ -443,6 +469,15 @@ class TripodSearch {
   bool best_is_firm_ = false;
   Hinge hinge_ = Hinge::Free;
   Hinge best_hinge_ = Hinge::Free;
+  struct LastResort {
+    IcpResult result;
+    const char* label;
+    Isometry3d init;
+    double max_turn_deg;
+    bool forward_only;
+    Hinge hinge;
+  };
+  std::vector<LastResort> last_resorts_;
 };
 
 }  // namespace
@@ -480,6 +515,7 @@ TrackedView register_tripod_view(const AlignmentState& s, const Target& model, s
                               o.max_tripod_step_deg + 5.0, true);
     add_turns(guesses, base, m, o);
     search.run(guesses, o.max_tripod_step_deg + 5.0, true);
+    search.take_last_resorts();
   }
   search.hold(Hinge::Free);
   const double max_tilt_turn = std::hypot(o.max_tripod_step_deg, o.max_tripod_tilt_deg);
@@ -487,18 +523,29 @@ TrackedView register_tripod_view(const AlignmentState& s, const Target& model, s
     std::vector<Guess> guesses;
     add_tilts(guesses, T_last, m, o);
     if (starts_ring) {
-      const auto first_of_previous = std::find_if(
-          views.begin(), views.end(), [&](std::size_t f) { return ring_of(f) == ring - 1; });
-      if (first_of_previous != views.end())
-        add_tilts(guesses, s.tracked_pose(*first_of_previous), m, o);
+      // The ring below is entered where it began, from its first view put back on its ring:
+      // a first view that one bare wall let roll about its normal would pass its roll to the
+      // whole new ring (generated room 33: 8 degrees).
+      const auto first = std::find_if(views.begin(), views.end(),
+                                      [&](std::size_t f) { return ring_of(f) == ring - 1; });
+      if (first != views.end()) {
+        const auto k = static_cast<std::size_t>(first - views.begin());
+        Isometry3d entry = s.tracked_pose(*first);
+        if (m.fit && m.fit->off_axis_deg[k] >= TripodFitOptions{}.inlier_deg)
+          entry.linear() = onto_ring(entry.linear(), m.fit->axis,
+                                     m.fit->ring_axes[static_cast<std::size_t>(m.fit->ring[k])]);
+        add_tilts(guesses, entry, m, o);
+      }
     }
     search.run(guesses, max_tilt_turn, false);
+    search.take_last_resorts();
   }
   if (!search.accepted()) {
     const auto g = features(s.prepared[frame].cloud, model.fine,
                             m.centre.cast<float>(), o, frame);
     if (g.ransac.success)
       search.refine_on_tripod(g.ransac.T_target_source, "features", max_tilt_turn, false);
+    search.take_last_resorts();
   }
   search.settle();
   if (search.accepted()) search.view().T_world_camera_initial = search.best_init();
