@@ -360,10 +360,8 @@ class TripodSearch {
       // the tripod's turns, the firm prior's result is kept as a last resort, for when no guess
       // holds with the light one (generated room 33's view 27). Not where a ring starts: its
       // guesses are tilts 10 degrees apart, and the firm prior would hold a wrong one (room 2).
-      if (!forward_only) return;
-      IcpResult firm = run(PriorStrength::Firm);
-      if (rotation_difference_deg(init, firm.T_target_source) <= kMaxWanderDeg)
-        last_resorts_.push_back({std::move(firm), label, init, max_turn_deg, forward_only, hinge_});
+      // Refined only when needed: most views take a light result.
+      if (forward_only) last_resorts_.push_back({label, init, max_turn_deg, forward_only, hinge_});
       return;
     }
     const bool slid =
@@ -379,11 +377,16 @@ class TripodSearch {
     take_firm(run(PriorStrength::Firm), label, init, max_turn_deg, forward_only, hinge_);
   }
 
-  // The firm results kept as a last resort, where no guess was accepted so far.
+  // The firm prior's results from the guesses kept as a last resort, where no guess was
+  // accepted so far.
   void take_last_resorts() {
     if (accepted_) return;
-    for (LastResort& r : last_resorts_)
-      take_firm(std::move(r.result), r.label, r.init, r.max_turn_deg, r.forward_only, r.hinge);
+    for (const LastResort& r : last_resorts_) {
+      IcpResult firm = refine(s_.prepared[frame_].cloud, s_.prepared[frame_].coarse, model_, r.init,
+                              o_, tracking_method(o_),
+                              tripod_prior(m_, r.init, o_, PriorStrength::Firm, r.hinge));
+      take_firm(std::move(firm), r.label, r.init, r.max_turn_deg, r.forward_only, r.hinge);
+    }
     last_resorts_.clear();
   }
 
@@ -470,7 +473,6 @@ class TripodSearch {
   Hinge hinge_ = Hinge::Free;
   Hinge best_hinge_ = Hinge::Free;
   struct LastResort {
-    IcpResult result;
     const char* label;
     Isometry3d init;
     double max_turn_deg;
