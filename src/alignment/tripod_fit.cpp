@@ -122,6 +122,10 @@ Eigen::Matrix3d onto_ring(const Eigen::Matrix3d& R, const Eigen::Vector3d& axis,
   return R * Eigen::Quaterniond::FromTwoVectors(ring_axis, seen).toRotationMatrix();
 }
 
+Eigen::Matrix3d onto_its_ring(const TripodFit& fit, std::size_t k, const Eigen::Matrix3d& R) {
+  return onto_ring(R, fit.axis, fit.ring_axes[static_cast<std::size_t>(fit.ring[k])]);
+}
+
 std::optional<TripodFit> fit_tripod(const std::vector<Eigen::Matrix3d>& R,
                                     const TripodFitOptions& o) {
   if (R.size() < 2 * o.min_ring_views) return std::nullopt;

@@ -88,5 +88,8 @@ std::optional<std::size_t> views_off_tripod(const std::vector<Eigen::Isometry3d>
 // ring_axis: R Q with Q the shortest rotation taking ring_axis to R^T axis.
 Eigen::Matrix3d onto_ring(const Eigen::Matrix3d& R, const Eigen::Vector3d& axis,
                           const Eigen::Vector3d& ring_axis);
+// View k of a fit (rotation R) put back on its ring: onto_ring with the fit's axis and the
+// view's ring axis.
+Eigen::Matrix3d onto_its_ring(const TripodFit& fit, std::size_t k, const Eigen::Matrix3d& R);
 
 }  // namespace locard::alignment_detail

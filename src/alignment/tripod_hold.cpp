@@ -108,7 +108,7 @@ void hold_views(AlignmentState& s, const std::vector<std::size_t>& views, const 
   tbb::parallel_for(std::size_t{0}, off.size(), [&](std::size_t j) {
     const std::size_t k = off[j], f = views[k];
     Isometry3d start = s.tracked_pose(f);
-    start.linear() = onto_ring(R[k], fit.axis, fit.ring_axes[static_cast<std::size_t>(fit.ring[k])]);
+    start.linear() = onto_its_ring(fit, k, R[k]);
     start.translation() = nodal.pivot + start.linear() * nodal.offset;
     IcpPosePrior prior;
     prior.T_target_source = start;

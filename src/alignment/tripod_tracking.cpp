@@ -349,11 +349,7 @@ class TripodSearch {
   // the camera leave the tripod.
   void refine_on_tripod(const Isometry3d& init, const char* label, double max_turn_deg,
                         bool forward_only) {
-    const auto run = [&](PriorStrength strength) {
-      return refine(s_.prepared[frame_].cloud, s_.prepared[frame_].coarse, model_, init, o_,
-                    tracking_method(o_), tripod_prior(m_, init, o_, strength, hinge_));
-    };
-    IcpResult light = run(PriorStrength::Light);
+    IcpResult light = refine_from(init, PriorStrength::Light, hinge_);
     if (rotation_difference_deg(init, light.T_target_source) > kMaxWanderDeg) {
       // The light prior let the data turn the view off its guess's basin: data that do not fix
       // the turn (one wall seen aslant) or a wrong guess. Within a ring, where the guesses are
@@ -361,7 +357,7 @@ class TripodSearch {
       // holds with the light one (generated room 33's view 27). Not where a ring starts: its
       // guesses are tilts 10 degrees apart, and the firm prior would hold a wrong one (room 2).
       // Refined only when needed: most views take a light result.
-      if (forward_only) last_resorts_.push_back({label, init, max_turn_deg, forward_only, hinge_});
+      if (forward_only) last_resorts_.push_back({label, init, max_turn_deg, hinge_});
       return;
     }
     const bool slid =
@@ -374,19 +370,17 @@ class TripodSearch {
       best_hinge_ = hinge_;
     }
     if (!slid) return;
-    take_firm(run(PriorStrength::Firm), label, init, max_turn_deg, forward_only, hinge_);
+    take_firm(refine_from(init, PriorStrength::Firm, hinge_), label, init, max_turn_deg,
+              forward_only, hinge_);
   }
 
-  // The firm prior's results from the guesses kept as a last resort, where no guess was
-  // accepted so far.
+  // The firm prior's results from the turn guesses kept as a last resort, where no guess was
+  // accepted so far (only turns within a ring keep one).
   void take_last_resorts() {
     if (accepted_) return;
-    for (const LastResort& r : last_resorts_) {
-      IcpResult firm = refine(s_.prepared[frame_].cloud, s_.prepared[frame_].coarse, model_, r.init,
-                              o_, tracking_method(o_),
-                              tripod_prior(m_, r.init, o_, PriorStrength::Firm, r.hinge));
-      take_firm(std::move(firm), r.label, r.init, r.max_turn_deg, r.forward_only, r.hinge);
-    }
+    for (const LastResort& r : last_resorts_)
+      take_firm(refine_from(r.init, PriorStrength::Firm, r.hinge), r.label, r.init,
+                r.max_turn_deg, true, r.hinge);
     last_resorts_.clear();
   }
 
@@ -397,9 +391,7 @@ class TripodSearch {
   // tracking must not let the data move it unheld.
   void settle() {
     if (!accepted_ || best_is_firm_) return;
-    IcpResult firm = refine(s_.prepared[frame_].cloud, s_.prepared[frame_].coarse, model_,
-                            best_init_, o_, tracking_method(o_),
-                            tripod_prior(m_, best_init_, o_, PriorStrength::Firm, best_hinge_));
+    IcpResult firm = refine_from(best_init_, PriorStrength::Firm, best_hinge_);
     const Eigen::Vector3d shift =
         view_.best->T_target_source.translation() - firm.T_target_source.translation();
     const double slide = shift.norm();
@@ -443,6 +435,12 @@ class TripodSearch {
     return false;
   }
 
+  // The frame refined from `init` with the tripod prior of that strength and hinge.
+  IcpResult refine_from(const Isometry3d& init, PriorStrength strength, Hinge hinge) const {
+    return refine(s_.prepared[frame_].cloud, s_.prepared[frame_].coarse, model_, init, o_,
+                  tracking_method(o_), tripod_prior(m_, init, o_, strength, hinge));
+  }
+
   void take_firm(IcpResult firm, const char* label, const Isometry3d& init, double max_turn_deg,
                  bool forward_only, Hinge hinge) {
     if (rotation_difference_deg(init, firm.T_target_source) > kMaxWanderDeg) return;
@@ -472,11 +470,10 @@ class TripodSearch {
   bool best_is_firm_ = false;
   Hinge hinge_ = Hinge::Free;
   Hinge best_hinge_ = Hinge::Free;
-  struct LastResort {
+  struct LastResort {  // a guess within a ring (forward only)
     const char* label;
     Isometry3d init;
     double max_turn_deg;
-    bool forward_only;
     Hinge hinge;
   };
   std::vector<LastResort> last_resorts_;
@@ -534,20 +531,17 @@ TrackedView register_tripod_view(const AlignmentState& s, const Target& model, s
         const auto k = static_cast<std::size_t>(first - views.begin());
         Isometry3d entry = s.tracked_pose(*first);
         if (m.fit && m.fit->off_axis_deg[k] >= TripodFitOptions{}.inlier_deg)
-          entry.linear() = onto_ring(entry.linear(), m.fit->axis,
-                                     m.fit->ring_axes[static_cast<std::size_t>(m.fit->ring[k])]);
+          entry.linear() = onto_its_ring(*m.fit, k, entry.linear());
         add_tilts(guesses, entry, m, o);
       }
     }
     search.run(guesses, max_tilt_turn, false);
-    search.take_last_resorts();
   }
   if (!search.accepted()) {
     const auto g = features(s.prepared[frame].cloud, model.fine,
                             m.centre.cast<float>(), o, frame);
     if (g.ransac.success)
       search.refine_on_tripod(g.ransac.T_target_source, "features", max_tilt_turn, false);
-    search.take_last_resorts();
   }
   search.settle();
   if (search.accepted()) search.view().T_world_camera_initial = search.best_init();
