@@ -18,6 +18,7 @@ own viewing directions and the mean rotation error in the camera frame.
 
   /usr/bin/python3 bench/room_robustness.py --locard build/release/locard --seeds 1-50 \
       [--sensor kinect_v1|kinect_v2] [--surfaces plain|textured] [--work DIR] [--json OUT]
+      [--reports DIR]
 
 Prints one line per room and a summary; the work folder is removed unless --keep.
 """
@@ -172,6 +173,7 @@ def main():
     p.add_argument('--work')
     p.add_argument('--json')
     p.add_argument('--keep', action='store_true')
+    p.add_argument('--reports', help="copy each room's stage_report.json here as SEED.json (for study after the scans are removed)")
     a = p.parse_args()
     work = a.work or tempfile.mkdtemp(prefix='locard-rooms-')
     os.makedirs(work, exist_ok=True)
@@ -214,6 +216,10 @@ def main():
         print('          flags: ' + ', '.join(f'{k} {v[0]} ({v[1]} good)'
                                             for k, v in sorted(row['flag_reasons'].items())),
               flush=True)
+        if a.reports:
+            os.makedirs(a.reports, exist_ok=True)
+            shutil.copy(os.path.join(out, 'stage_report.json'), os.path.join(a.reports, f'{seed}.json'))
+            shutil.copy(os.path.join(scan, 'groundtruth.txt'), os.path.join(a.reports, f'{seed}.groundtruth.txt'))
         if a.json:  # as it goes: a long sweep stopped part-way keeps what it measured
             json.dump(rows, open(a.json, 'w'), indent=1)
         if not a.keep:
