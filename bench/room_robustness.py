@@ -69,12 +69,19 @@ def rotation_vector_deg(R):
     return axis * np.degrees(angle)
 
 
-def fitted_ate_mm(pairs):
-    """ATE (mm) of estimate/truth pairs after the best rigid fit (chordal-mean rotation)."""
+def rigid_fit(pairs):
+    """Best rigid fit (R, t) of estimate/truth pose pairs: rotation by the chordal mean, then
+    translation; R @ estimate + t is comparable with the truth."""
     M = sum(G[:3, :3] @ T[:3, :3].T for T, G in pairs)
     U, _, Vt = np.linalg.svd(M)
     R = U @ np.diag([1, 1, np.linalg.det(U @ Vt)]) @ Vt
     t = np.mean([G[:3, 3] - R @ T[:3, 3] for T, G in pairs], axis=0)
+    return R, t
+
+
+def fitted_ate_mm(pairs):
+    """ATE (mm) of estimate/truth pairs after the best rigid fit (chordal-mean rotation)."""
+    R, t = rigid_fit(pairs)
     return float(np.sqrt(np.mean([np.sum(np.square(R @ T[:3, 3] + t - G[:3, 3])) for T, G in pairs]))) * 1000
 
 
@@ -102,10 +109,7 @@ def evaluate(scan, out):
         return result
     # Best rigid fit estimate -> truth: rotation by the chordal mean, then translation, over
     # the verified views.
-    M = sum(G[:3, :3] @ T[:3, :3].T for _, T, G in vouched)
-    U, _, Vt = np.linalg.svd(M)
-    R = U @ np.diag([1, 1, np.linalg.det(U @ Vt)]) @ Vt
-    t = np.mean([G[:3, 3] - R @ T[:3, 3] for _, T, G in vouched], axis=0)
+    R, t = rigid_fit([(T, G) for _, T, G in vouched])
     errors, along, tilt = [], [], []
     for f, T, G in vouched:
         e = R @ T[:3, 3] + t - G[:3, 3]
