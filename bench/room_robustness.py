@@ -85,9 +85,25 @@ def fitted_ate_mm(pairs):
     return float(np.sqrt(np.mean([np.sum(np.square(R @ T[:3, 3] + t - G[:3, 3])) for T, G in pairs]))) * 1000
 
 
+def view_error(R, t, T, G):
+    """Centre (mm) and rotation (degrees) error of estimate T against truth G after the fit (R, t)."""
+    return (float(np.linalg.norm(R @ T[:3, 3] + t - G[:3, 3])) * 1000,
+            rotation_deg(G[:3, :3].T @ (R @ T[:3, :3])))
+
+
+def is_accurate(row):
+    """The issue's bar for a room: ATE <= 3 mm over the verified views, each of them good."""
+    return bool(row['ate_mm'] <= 3.0 and row['good'] == row['views'] - row['flagged'])
+
+
 def evaluate(scan, out):
-    truth = load_tum(os.path.join(scan, 'groundtruth.txt'))
-    report = json.load(open(os.path.join(out, 'stage_report.json')))
+    return evaluate_report(os.path.join(out, 'stage_report.json'),
+                           os.path.join(scan, 'groundtruth.txt'))
+
+
+def evaluate_report(report_path, truth_path):
+    truth = load_tum(truth_path)
+    report = json.load(open(report_path))
     views = []
     for f in report['frames']:
         T = None
@@ -113,8 +129,7 @@ def evaluate(scan, out):
     errors, along, tilt = [], [], []
     for f, T, G in vouched:
         e = R @ T[:3, 3] + t - G[:3, 3]
-        dt = float(np.linalg.norm(e)) * 1000
-        dr = rotation_deg(G[:3, :3].T @ (R @ T[:3, :3]))
+        dt, dr = view_error(R, t, T, G)
         errors.append(dt)
         along.append(float(e @ G[:3, 2]) * 1000)
         tilt.append(rotation_vector_deg(G[:3, :3].T @ (R @ T[:3, :3])))
@@ -136,8 +151,7 @@ def evaluate(scan, out):
     for f, T, G in placed:
         if f.get('verified'):
             continue
-        dt = float(np.linalg.norm(R @ T[:3, 3] + t - G[:3, 3])) * 1000
-        dr = rotation_deg(G[:3, :3].T @ (R @ T[:3, :3]))
+        dt, dr = view_error(R, t, T, G)
         good = dt <= 10 and dr <= 0.5
         result['flagged_but_good'] += good
         for reason in reason_kinds(f.get('check', {}).get('reason', '') or f.get('reason', '')):
@@ -204,8 +218,7 @@ def main():
         row.update(seed=seed, exit=r.returncode, seconds=round(seconds, 1),
                    sensor=capture.get('sensor'), rings=capture.get('ring_sizes'),
                    walls=scene['room'].get('texture', 'plain'))
-        row['accurate'] = bool(row['ate_mm'] <= 3.0 and
-                               row['good'] == row['views'] - row['flagged'])
+        row['accurate'] = is_accurate(row)
         row['success'] = r.returncode == 0 and row['accurate']
         rows.append(row)
         print(f"seed {seed:3d} {row['sensor']:9s} rings {str(row['rings']):14s} exit {r.returncode} "

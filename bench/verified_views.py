@@ -25,24 +25,34 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import room_robustness as rr  # noqa: E402
 
 
-def registered_views(reports, seed):
-    report = json.load(open(os.path.join(reports, f'{seed}.json')))
-    truth = rr.load_tum(os.path.join(reports, f'{seed}.groundtruth.txt'))
+def room_files(reports, seed):
+    return os.path.join(reports, f'{seed}.json'), os.path.join(reports, f'{seed}.groundtruth.txt')
+
+
+def print_views(reports, seed):
+    """Each registered view's error after the fit of the verified ones, beside the check's figures."""
+    report_path, truth_path = room_files(reports, seed)
+    truth = rr.load_tum(truth_path)
     views = []
-    for f in report['frames']:
+    for f in json.load(open(report_path))['frames']:
         if f['status'] != 'registered' or 'T_world_camera' not in f:
             continue
         T = np.eye(4)
         T[:3, :] = np.array(f['T_world_camera'])
-        views.append({'frame': f, 'T': T, 'G': truth[round(f['timestamp'], 4)],
-                      'verified': bool(f.get('verified'))})
-    return views, len(report['frames'])
-
-
-def errors(views, R, t):
-    for v in views:
-        v['error_mm'] = float(np.linalg.norm(R @ v['T'][:3, 3] + t - v['G'][:3, 3])) * 1000
-        v['error_deg'] = rr.rotation_deg(v['G'][:3, :3].T @ (R @ v['T'][:3, :3]))
+        views.append((f, T, truth[round(f['timestamp'], 4)]))
+    verified = [(T, G) for f, T, G in views if f.get('verified')]
+    if len(verified) < 2:
+        return
+    R, t = rr.rigid_fit(verified)
+    print('  frame verified   error         constraint  slide   play   off-model  correction  reason')
+    for f, T, G in views:
+        mm, deg = rr.view_error(R, t, T, G)
+        c = f.get('check', {})
+        print(f"  {f['frame_index']:5d} {'yes' if f.get('verified') else 'no ':>8} "
+              f"{mm:6.1f} mm {deg:4.2f} deg  {c.get('constraint', float('nan')):.4f}  "
+              f"{c.get('slide_constraint', float('nan')):.4f}  {1000 * c.get('tripod_play_m', float('nan')):4.1f}  "
+              f"{1000 * c.get('tripod_residual_m', float('nan')):6.1f} mm  {1000 * c.get('correction_m', float('nan')):6.1f} mm  "
+              f"{c.get('reason', '')[:70]}")
 
 
 def main():
@@ -55,30 +65,14 @@ def main():
         seeds = [a.seed]
     accurate = 0
     for seed in seeds:
-        views, total = registered_views(a.reports, seed)
-        verified = [v for v in views if v['verified']]
-        if len(verified) < 2:
-            print(f'seed {seed:3d}: {len(verified)} of {total} views verified')
-            continue
-        R, t = rr.rigid_fit([(v['T'], v['G']) for v in verified])
-        errors(views, R, t)
-        ate = float(np.sqrt(np.mean([v['error_mm'] ** 2 for v in verified])))
-        worst_mm = max(v['error_mm'] for v in verified)
-        worst_deg = max(v['error_deg'] for v in verified)
-        ok = ate <= 3.0 and worst_mm <= 10.0 and worst_deg <= 0.5
+        row = rr.evaluate_report(*room_files(a.reports, seed))
+        ok = rr.is_accurate(row)
         accurate += ok
-        print(f"seed {seed:3d}: {len(verified):3d} of {total:3d} views verified, ATE {ate:5.2f} mm, "
-              f"worst {worst_mm:5.1f} mm / {worst_deg:.2f} deg  {'accurate' if ok else 'NOT accurate'}")
-        if a.seed is None:
-            continue
-        print('  frame verified   error         constraint  slide   play   off-model  correction  reason')
-        for v in views:
-            c = v['frame'].get('check', {})
-            print(f"  {v['frame']['frame_index']:5d} {'yes' if v['verified'] else 'no ':>8} "
-                  f"{v['error_mm']:6.1f} mm {v['error_deg']:4.2f} deg  {c.get('constraint', float('nan')):.4f}  "
-                  f"{c.get('slide_constraint', float('nan')):.4f}  {1000 * c.get('tripod_play_m', float('nan')):4.1f}  "
-                  f"{1000 * c.get('tripod_residual_m', float('nan')):6.1f} mm  {1000 * c.get('correction_m', float('nan')):6.1f} mm  "
-                  f"{c.get('reason', '')[:70]}")
+        verified = row['views'] - row['flagged']
+        print(f"seed {seed:3d}: {verified:3d} of {row['views']:3d} views verified, ATE {row['ate_mm']:5.2f} mm, "
+              f"worst {row['worst_mm']:5.1f} mm / {row['worst_deg']:.2f} deg  {'accurate' if ok else 'NOT accurate'}")
+        if a.seed is not None:
+            print_views(a.reports, seed)
     if a.seed is None:
         print(f'SUMMARY {accurate} of {len(seeds)} rooms accurate')
 
