@@ -7,13 +7,19 @@
 # both ends snapped to a feature (a row with an end "not snapped" is never counted within U) and
 # the rows beyond 3 U. Uses Debian's numpy (/usr/bin/python3). Measures into the case: give it
 # a copy.
-#   bench/pick_study.py SCAN_DIR CASE_COPY [LOCARD]
+#   bench/pick_study.py SCAN_DIR CASE_COPY [LOCARD] [--ends ENDS.json]
 #   (SCAN_DIR holds measurements.json, e.g. `locard scan-sim -o scan`; CASE_COPY a copy of
-#    `locard reconstruct scan -o case`)
+#    `locard reconstruct scan -o case`; --ends writes each measured row's two ends - what each
+#    snapped to, how far along the line it lies from its tape end (+ outward), its standard
+#    uncertainty - for bench/pick_ends.py, which tells which kind of end carries the misses)
 import json, subprocess, re, struct, sys
 import numpy as np
-scan=sys.argv[1]; case=sys.argv[2]
-locard=sys.argv[3] if len(sys.argv)>3 else 'build/release/locard'
+args=sys.argv[1:]
+ends_out=None
+if '--ends' in args:
+    k=args.index('--ends'); ends_out=args[k+1]; del args[k:k+2]
+scan=args[0]; case=args[1]
+locard=args[2] if len(args)>2 else 'build/release/locard'
 refs=json.load(open(scan+'/measurements.json'))['measurements']
 # mesh (binary PLY little endian): read vertices and faces
 data=open(case+'/mesh/mesh.ply','rb').read()
@@ -57,7 +63,7 @@ def onto_mesh(p):
 def normal_at(p):
     d=np.linalg.norm(C-p,axis=1); idx=np.argsort(d)[:30]
     n=N[idx]; n=n*np.sign(n@n[0])[:,None]; n=n.mean(0); return n/np.linalg.norm(n)
-rows=[]
+rows=[]; end_rows=[]
 # A tape end the model lacks (a wall the flagged views alone saw, a part of a table never
 # seen) cannot be clicked: `locard measure` refuses a point more than 5 cm from the mesh, and
 # moving it onto the mesh's closest point would measure some other surface. Such rows are
@@ -80,6 +86,16 @@ for r in refs:
         m=re.search(r': ([0-9.]+) m \+- ([0-9.]+) m \(k=2\); ends (.+) and (.+)',out.stdout)
         if not m: rows.append((r['name'],sgn,None,None,None,out.stderr.strip()[:80])); continue
         dist,U=float(m.group(1)),float(m.group(2)); err=dist-r['distance_m']
+        if ends_out and r['name'] not in off_model:
+            # The row just appended to the case (--name pick): its snapped ends, placed along
+            # the line against the tape ends (positive: beyond the tape end, outward).
+            last=json.load(open(case+'/measurements/measurements.json'))['measurements'][-1]
+            row={'name':r['name'],'sign':sgn,'error_m':err,'U_m':U}
+            for k,tape,outward in (('a',a,-d),('b',b,d)):
+                e=last[k]
+                row[k]={'feature':e['feature'],'along_m':float((np.array(e['snapped'])-tape)@outward),
+                        'u_m':e['standard_uncertainty_m'],'views':e['views'],'points':e['points']}
+            end_rows.append(row)
         snapped = 'not snapped' not in (m.group(3)+m.group(4))
         rows.append((r['name'],sgn,err,U,snapped,m.group(3)+'/'+m.group(4)))
 within=beyond=total=off=0
@@ -91,3 +107,4 @@ for name,sgn,err,U,sn,feat in rows:
     w = sn and abs(err)<=U; within+=w; beyond+= abs(err)>3*U
     print(f'{name:16s} {sgn:+d} error {1000*err:+7.1f} mm U {1000*U:5.1f} mm {"within" if w else ("not snapped" if not sn else "OUTSIDE")} {"(>3U)" if abs(err)>3*U else ""} {feat}')
 print(f'within U (both ends snapped): {within}/{total}; beyond 3U: {beyond}/{total}; tape end off the model: {off}/{total}')
+if ends_out: json.dump(end_rows,open(ends_out,'w'),indent=1)
