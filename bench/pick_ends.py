@@ -8,6 +8,9 @@
 #   bench/pick_ends.py ENDS.json [ENDS.json ...]
 import json, sys, collections
 import numpy as np
+if len(sys.argv)<2 or sys.argv[1] in ('-h','--help'):
+    print(open(__file__).read().split('\nimport ')[0].replace('#!/usr/bin/python3\n','').replace('# ',''))
+    sys.exit(0 if len(sys.argv)>1 else 2)
 by_feature=collections.defaultdict(list); misses=[]; rows=0
 for path in sys.argv[1:]:
     for r in json.load(open(path)):

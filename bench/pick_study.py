@@ -15,6 +15,9 @@
 import json, subprocess, re, struct, sys
 import numpy as np
 args=sys.argv[1:]
+if len(args)<2 or args[0] in ('-h','--help'):
+    print(open(__file__).read().split('\nimport ')[0].replace('#!/usr/bin/python3\n','').replace('# ','').replace('#',''))
+    sys.exit(0 if args and args[0] in ('-h','--help') else 2)
 ends_out=None
 if '--ends' in args:
     k=args.index('--ends'); ends_out=args[k+1]; del args[k:k+2]
