@@ -1,22 +1,21 @@
 #!/usr/bin/python3
-# Which kind of end carries the pick study's misses: reads the files `bench/pick_study.py
-# --ends` wrote (one per room) and prints, per feature an end snapped to (face, edge, corner,
-# outermost point, not snapped), how many ends, their mean and rms offset along the line from
-# the tape end, and how the offsets compare with the ends' stated standard uncertainty (rms of
-# offset / u near 1: U is honest; well above: U is too small for that kind of end); then every
-# row not measured within U, with both ends. Uses Debian's numpy (/usr/bin/python3).
-#   bench/pick_ends.py ENDS.json [ENDS.json ...]
-import json, sys, collections
+"""Which kind of end carries the pick study's misses: reads the files `bench/pick_study.py
+--ends` wrote (one per room) and prints, per feature an end snapped to (face, edge, corner,
+outermost point, not snapped), how many ends, their mean and rms offset along the line from
+the tape end, and how the offsets compare with the ends' stated standard uncertainty (rms of
+offset / u near 1: U is honest; well above: U is too small for that kind of end); then every
+row not measured within U (pick_study's verdict), with both ends. Uses Debian's numpy
+(/usr/bin/python3).
+  bench/pick_ends.py ENDS.json [ENDS.json ...]"""
+import argparse, json, collections
 import numpy as np
-if len(sys.argv)<2 or sys.argv[1] in ('-h','--help'):
-    print(open(__file__).read().split('\nimport ')[0].replace('#!/usr/bin/python3\n','').replace('# ',''))
-    sys.exit(0 if len(sys.argv)>1 else 2)
+ap=argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+ap.add_argument('ends', nargs='+', help='files written by bench/pick_study.py --ends')
 by_feature=collections.defaultdict(list); misses=[]; rows=0
-for path in sys.argv[1:]:
+for path in ap.parse_args().ends:
     for r in json.load(open(path)):
         rows+=1
-        snapped=all(r[k]['feature']!='not snapped' for k in 'ab')
-        if not (snapped and abs(r['error_m'])<=r['U_m']): misses.append((path,r))
+        if not r['within_U']: misses.append((path,r))
         for k in 'ab': by_feature[r[k]['feature']].append((r[k]['along_m'],r[k]['u_m']))
 print(f'{rows} rows measured, {rows-len(misses)} within U with both ends snapped ({100*(rows-len(misses))/max(rows,1):.1f} %)')
 print(f'{"end snapped to":26s} {"ends":>5s} {"mean mm":>8s} {"rms mm":>7s} {"rms along/u":>12s} {"|along|>2u":>10s}')

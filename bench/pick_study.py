@@ -1,28 +1,24 @@
 #!/usr/bin/python3
-# Issue 15 item 1 study: every reference distance of a case measured with both ends moved 1.5 cm
-# along the surface at right angles to the line (both ways), through `locard measure`, as an
-# investigator's clicks land near the tape points: 1.5 cm along the tangent (normal of the mesh
-# around the tape point, across the line), then onto the mesh (its closest point), where a click
-# would land. Counts the rows within their stated U with
-# both ends snapped to a feature (a row with an end "not snapped" is never counted within U) and
-# the rows beyond 3 U. Uses Debian's numpy (/usr/bin/python3). Measures into the case: give it
-# a copy.
-#   bench/pick_study.py SCAN_DIR CASE_COPY [LOCARD] [--ends ENDS.json]
-#   (SCAN_DIR holds measurements.json, e.g. `locard scan-sim -o scan`; CASE_COPY a copy of
-#    `locard reconstruct scan -o case`; --ends writes each measured row's two ends - what each
-#    snapped to, how far along the line it lies from its tape end (+ outward), its standard
-#    uncertainty - for bench/pick_ends.py, which tells which kind of end carries the misses)
-import json, subprocess, re, struct, sys
+"""Issue 15 item 1 study: every reference distance of a case measured with both ends moved 1.5 cm
+along the surface at right angles to the line (both ways), through `locard measure`, as an
+investigator's clicks land near the tape points: 1.5 cm along the tangent (normal of the mesh
+around the tape point, across the line), then onto the mesh (its closest point), where a click
+would land. Counts the rows within their stated U with both ends snapped to a feature (a row
+with an end "not snapped" is never counted within U) and the rows beyond 3 U. Uses Debian's
+numpy (/usr/bin/python3). Measures into the case: give it a copy.
+  bench/pick_study.py SCAN_DIR CASE_COPY [LOCARD] [--ends ENDS.json]
+  (SCAN_DIR holds measurements.json, e.g. `locard scan-sim -o scan`; CASE_COPY a copy of
+   `locard reconstruct scan -o case`; --ends writes each measured row's two ends - what each
+   snapped to, how far along the line it lies from its tape end (+ outward), its standard
+   uncertainty - for bench/pick_ends.py, which tells which kind of end carries the misses)"""
+import argparse, json, subprocess, re, struct, sys
 import numpy as np
-args=sys.argv[1:]
-if len(args)<2 or args[0] in ('-h','--help'):
-    print(open(__file__).read().split('\nimport ')[0].replace('#!/usr/bin/python3\n','').replace('# ','').replace('#',''))
-    sys.exit(0 if args and args[0] in ('-h','--help') else 2)
-ends_out=None
-if '--ends' in args:
-    k=args.index('--ends'); ends_out=args[k+1]; del args[k:k+2]
-scan=args[0]; case=args[1]
-locard=args[2] if len(args)>2 else 'build/release/locard'
+ap=argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawTextHelpFormatter)
+ap.add_argument('scan'); ap.add_argument('case')
+ap.add_argument('locard', nargs='?', default='build/release/locard')
+ap.add_argument('--ends', help='write each measured row\'s two ends here (JSON)')
+args=ap.parse_args()
+scan, case, locard, ends_out = args.scan, args.case, args.locard, args.ends
 refs=json.load(open(scan+'/measurements.json'))['measurements']
 # mesh (binary PLY little endian): read vertices and faces
 data=open(case+'/mesh/mesh.ply','rb').read()
@@ -89,17 +85,17 @@ for r in refs:
         m=re.search(r': ([0-9.]+) m \+- ([0-9.]+) m \(k=2\); ends (.+) and (.+)',out.stdout)
         if not m: rows.append((r['name'],sgn,None,None,None,out.stderr.strip()[:80])); continue
         dist,U=float(m.group(1)),float(m.group(2)); err=dist-r['distance_m']
+        snapped = 'not snapped' not in (m.group(3)+m.group(4))
         if ends_out and r['name'] not in off_model:
             # The row just appended to the case (--name pick): its snapped ends, placed along
             # the line against the tape ends (positive: beyond the tape end, outward).
             last=json.load(open(case+'/measurements/measurements.json'))['measurements'][-1]
-            row={'name':r['name'],'sign':sgn,'error_m':err,'U_m':U}
+            row={'name':r['name'],'sign':sgn,'error_m':err,'U_m':U,'within_U':snapped and abs(err)<=U}
             for k,tape,outward in (('a',a,-d),('b',b,d)):
                 e=last[k]
                 row[k]={'feature':e['feature'],'along_m':float((np.array(e['snapped'])-tape)@outward),
                         'u_m':e['standard_uncertainty_m'],'views':e['views'],'points':e['points']}
             end_rows.append(row)
-        snapped = 'not snapped' not in (m.group(3)+m.group(4))
         rows.append((r['name'],sgn,err,U,snapped,m.group(3)+'/'+m.group(4)))
 within=beyond=total=off=0
 for name,sgn,err,U,sn,feat in rows:
