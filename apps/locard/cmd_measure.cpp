@@ -80,7 +80,7 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
                                 r.not_measured);
           continue;
         }
-        // A row whose end kept the picked point is never "within U" (U does not cover the pick).
+        // A row whose end kept the picked point is never "within U" (nothing but the mesh fixes it).
         const char* verdict = !r.ends_snapped         ? "(an end not snapped: not within U)"
                               : r.within_uncertainty ? ""
                                                      : "(outside U)";
@@ -109,8 +109,9 @@ int run_measure(const MeasureCli& o, const GlobalOptions& global) {
       for (const auto& [end, p] : {std::pair{"from", &m.a}, std::pair{"to", &m.b}})
         if (!fx::is_snapped(p->feature))
           result += fmt::format("warning: the --{} end is {}; the distance is only as good as "
-                                "that pick, and U does not cover it\n",
-                                end, fx::describe(p->feature));
+                                "that pick: U holds the end only to the mesh there (within the "
+                                "fusion's {:.0f} mm truncation band along the line), not to a feature\n",
+                                end, fx::describe(p->feature), 1000 * model.model_truncation_m());
       params["kind"] = "point_to_point";
       params["from"] = o.from;
       params["to"] = o.to;

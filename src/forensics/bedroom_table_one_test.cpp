@@ -144,12 +144,24 @@ TEST(BedroomTableOne, EveryDimensionWithinBoundsAndItsUncertainty) {
   EXPECT_EQ(s.registered, 66u);  // two rings: 50 views at -10 degrees, 16 at -50
   const auto table = nlohmann::json::parse(std::ifstream(dir / "case" / "measurements" / "table.json"));
   ASSERT_EQ(table["rows"].size(), 12u);
+  const double truncation =
+      nlohmann::json::parse(std::ifstream(dir / "case" / "mesh" / "mesh.json"))["truncation"].get<double>();
+  int not_snapped = 0;
   for (const auto& row : table["rows"]) {
     const std::string name = row["name"];
     ASSERT_FALSE(row.contains("not_measured")) << name << ": " << row["not_measured"];
     const double error = row["error_m"], u = row["expanded_uncertainty_m"];
-    std::printf("%-16s real %.4f model %.4f error %+6.1f mm U %.1f mm\n", name.c_str(),
-                row["real_m"].get<double>(), row["model_m"].get<double>(), 1000 * error, 1000 * u);
+    std::printf("%-16s real %.4f model %.4f error %+6.1f mm U %.1f mm%s\n", name.c_str(),
+                row["real_m"].get<double>(), row["model_m"].get<double>(), 1000 * error, 1000 * u,
+                row["ends_snapped"] ? "" : " (an end not snapped)");
+    // A row with an end nothing fixed reads the tape point back: never counted within U, and
+    // its U holds that end only to the mesh (the fusion's truncation band), not millimetres.
+    if (!row["ends_snapped"].get<bool>()) {
+      ++not_snapped;
+      EXPECT_FALSE(row["within_uncertainty"].get<bool>()) << name;
+      EXPECT_GE(u, 2.0 * truncation / std::sqrt(3.0)) << name << ": U of an end not snapped";
+      continue;
+    }
     // An end fixed by the outermost of a few points (the chair seat's far corner, hidden by its
     // back) is half a pixel's footprint beyond it, uncertain by a footprint (here 18 mm): held
     // to 1 cm and its U to 3 cm.
@@ -160,6 +172,9 @@ TEST(BedroomTableOne, EveryDimensionWithinBoundsAndItsUncertainty) {
     EXPECT_LE(std::abs(error), u) << name << ": error outside its stated uncertainty";
     EXPECT_LT(u, outermost ? 0.03 : 0.02) << name << ": an uncertainty this large says nothing";
   }
+  // The table's near corner (its top seen at grazing) and the socket's centre (a face
+  // ends nothing across the wall) are not snapped at the tape points (7 December 2026).
+  EXPECT_LE(not_snapped, 2) << "Table I rows with an end not snapped";
   EXPECT_TRUE(verify_case(dir / "case").ok());
   expect_picks_hold(dir / "scan", dir / "case");
 }

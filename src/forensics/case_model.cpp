@@ -187,6 +187,7 @@ struct CaseModel::Impl {
   double depth_scale = 1000.0;
   SensorNoiseModel noise;
   double voxel = 0.01;
+  double truncation = 0.04;
   std::mutex mutex;
   std::vector<std::shared_ptr<const DepthImage>> depth;  // cache, per view
   std::vector<bool> depth_failed;
@@ -214,13 +215,15 @@ struct CaseModel::Impl {
 };
 
 CaseModel::CaseModel(TriangleMesh mesh, std::vector<ViewRecord> views, CameraIntrinsics intrinsics,
-                     double depth_scale, SensorNoiseModel noise, double model_voxel_m) {
+                     double depth_scale, SensorNoiseModel noise, double model_voxel_m,
+                     double model_truncation_m) {
   if (mesh.triangles.empty()) throw InputError("the model has no triangles to measure on");
   impl_ = std::make_unique<Impl>(std::move(mesh), std::move(views));
   impl_->intrinsics = std::move(intrinsics);
   impl_->depth_scale = depth_scale;
   impl_->noise = std::move(noise);
   impl_->voxel = model_voxel_m;
+  impl_->truncation = model_truncation_m > 0 ? model_truncation_m : 4.0 * model_voxel_m;
 }
 
 CaseModel::~CaseModel() = default;
@@ -234,15 +237,16 @@ CaseModel CaseModel::load(const CaseFolder& folder) {
   const fs::path cov_path = root / "alignment" / "pose_covariance.json";
   std::vector<ViewRecord> views = read_view_records(cov_path);
   const CaseSensor sensor = read_case_sensor(case_path);
-  double voxel = 0.01;
+  double voxel = 0.01, truncation = 0.0;
   const fs::path mesh_json = root / "mesh" / "mesh.json";
   if (fs::exists(mesh_json)) {
     const json j = io_detail::read_json_file(mesh_json);
     if (!j.is_object()) throw_input_error(mesh_json, "expected a JSON object");
     if (j.contains("voxel_size")) voxel = positive_number(j, "voxel_size", mesh_json);
+    if (j.contains("truncation")) truncation = positive_number(j, "truncation", mesh_json);
   }
   return CaseModel(std::move(mesh), std::move(views), sensor.intrinsics, sensor.depth_scale,
-                   sensor.noise, voxel);
+                   sensor.noise, voxel, truncation);
 }
 
 const TriangleMesh& CaseModel::mesh() const { return impl_->mesh; }
@@ -251,6 +255,7 @@ const std::vector<ViewRecord>& CaseModel::views() const { return impl_->views; }
 const CameraIntrinsics& CaseModel::intrinsics() const { return impl_->intrinsics; }
 const SensorNoiseModel& CaseModel::noise() const { return impl_->noise; }
 double CaseModel::model_voxel_m() const { return impl_->voxel; }
+double CaseModel::model_truncation_m() const { return impl_->truncation; }
 
 double CaseModel::distance_to_mesh(const Eigen::Vector3d& p) const {
   Neighbor n;

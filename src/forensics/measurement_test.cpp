@@ -195,6 +195,15 @@ TEST_F(Snapping, AFloorWithNothingAcrossTheLineIsNotSnapped) {
   EXPECT_NEAR(m.a.snapped.x(), a.x(), 1e-9);  // as given along the line
   EXPECT_NEAR(m.b.snapped.x(), b.x(), 1e-9);
   EXPECT_NE(describe(m.a.feature).find("not snapped: the picked point is used as given"), std::string::npos);
+  // Where it was picked is known only to the mesh, which the fusion places within its
+  // truncation band: each end's variance along the line holds that band (uniform, t^2 / 3),
+  // not just the poses' millimetres.
+  const double t = model().model_truncation_m();
+  EXPECT_DOUBLE_EQ(t, 4 * model().model_voxel_m());
+  const Vector3d d = (b - a).normalized();
+  EXPECT_GE(d.dot(m.a.covariance * d), t * t / 3.0);
+  EXPECT_GE(d.dot(m.b.covariance * d), t * t / 3.0);
+  EXPECT_GE(m.expanded_uncertainty_m, 2.0 * std::sqrt(2.0 / 3.0) * t);
   // Table I with the tape value equal to the picked distance: the model "reads it back", and
   // that row is never counted as measured within U.
   const auto rows = compare_with_reference(model(), {{"floor", a, b, (b - a).norm()}});

@@ -612,6 +612,18 @@ SnappedPoint snap_without_direction(const CaseModel& model, SnappedPoint s, cons
   return s;
 }
 
+// An end nothing fixed along the line is where it was picked, on the mesh, and the mesh
+// alone says where the surface is there: the fusion averaged depth over its truncation band,
+// and where no plane or edge was fitted (a corner it rounded, a thin edge, a face seen edge-on)
+// it stands up to that far off the surface the views saw - 2-3.5 cm short at a far table's
+// rounded corner. Taken as uniform within +- the truncation along the line: a "not snapped"
+// end states how little it knows instead of the pose's millimetres (it is still never counted
+// as measured within U).
+Matrix3d as_picked_variance(const CaseModel& model, const Vector3d& o) {
+  const double t = model.model_truncation_m();
+  return o * o.transpose() * (t * t / 3.0);
+}
+
 SnappedPoint snap_on_model(const CaseModel& model, const Vector3d& point,
                            const std::optional<Vector3d>& outward, const SnapOptions& options,
                            bool may_land) {
@@ -637,7 +649,7 @@ SnappedPoint snap_on_model(const CaseModel& model, const Vector3d& point,
   if (!outward) return snap_without_direction(model, s, L, planes, pose_cov);
   if (planes.empty()) {  // nothing to snap to across the line: as picked
     s.feature = SnapFeature::NotSnapped;
-    s.covariance = pose_cov;
+    s.covariance = pose_cov + as_picked_variance(model, outward->normalized());
     return s;
   }
   Matrix3d cov = pose_cov;
@@ -661,6 +673,7 @@ SnappedPoint snap_on_model(const CaseModel& model, const Vector3d& point,
   } else {
     s.feature = SnapFeature::NotSnapped;  // no plane across the line, none along it
   }
+  if (s.feature == SnapFeature::NotSnapped) cov += as_picked_variance(model, o);
   s.snapped = q;
   s.covariance = cov;
   return s;

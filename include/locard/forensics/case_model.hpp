@@ -67,10 +67,12 @@ struct LocalPoints {
 
 class CaseModel {
  public:
+  // model_truncation_m: the fusion's truncation (0: four voxels, reconstruct's default).
   CaseModel(TriangleMesh mesh, std::vector<ViewRecord> views, CameraIntrinsics intrinsics,
-            double depth_scale, SensorNoiseModel noise, double model_voxel_m);
+            double depth_scale, SensorNoiseModel noise, double model_voxel_m,
+            double model_truncation_m = 0.0);
   // Reads mesh/mesh.ply, alignment/trajectory.txt, alignment/pose_covariance.json and the
-  // sensor description in case.json. Throws InputError naming a missing or bad file. The noise
+  // sensor description in case.json; the voxel and truncation from mesh/mesh.json. Throws InputError naming a missing or bad file. The noise
   // model is the recorded "noise_model"; without one, SensorNoiseModel::for_sensor of the
   // recorded "depth_sensor"; a case.json older than both (only "intrinsics_name") gets
   // kinect_v2 when that name is exactly the simulator's preset "kinect_v2", else
@@ -86,6 +88,10 @@ class CaseModel {
   const CameraIntrinsics& intrinsics() const;
   const SensorNoiseModel& noise() const;
   double model_voxel_m() const;
+  // The band either side of a surface that the fusion averaged depth over: where no plane or
+  // edge was fitted, the mesh stands within about this of what the views saw (it rounds
+  // corners and thin edges by up to it).
+  double model_truncation_m() const;
 
   // Distance from p to the nearest mesh vertex (the "is it on the model" check).
   double distance_to_mesh(const Eigen::Vector3d& p) const;

@@ -81,7 +81,7 @@ export async function measure(a, b) {
   result(`distance ${fmtM(m.distance_m)}\n± ${(m.expanded_uncertainty_m * 1000).toFixed(1)} mm (k = ${m.coverage_factor}, ~95 %)\n` +
     `a: ${m.a.feature} (${m.a.views} views)\nb: ${m.b.feature} (${m.b.views} views)` +
     (m.a.snapped_to_feature && m.b.snapped_to_feature ? '' :
-      '\nwarning: an end is not snapped (no face, edge or corner across the line): the picked point is used as given, and U does not cover it'));
+      '\nwarning: an end is not snapped (no face, edge or corner across the line): the picked point is used as given, and U holds it only to the mesh there (the fusion\'s truncation band), not to a feature'));
   state.lastMeasurement = m;
   loadSaved().catch((err) => status(`measurements: ${err.message}`));
   requestRender();
