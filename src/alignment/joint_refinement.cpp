@@ -81,6 +81,7 @@
 #include "alignment/tripod_fit.hpp"
 
 #include <locard/core/kdtree.hpp>
+#include <locard/core/nearest_with_hints.hpp>
 #include <locard/registration/color_gradient.hpp>
 #include <locard/registration/robust_kernel.hpp>
 
@@ -89,7 +90,9 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <optional>
 #include <set>
 
 namespace locard::alignment_detail {
@@ -159,6 +162,7 @@ struct Tripod {
 struct View {
   const PointCloud* cloud = nullptr;  // camera frame, with normals
   KdTree tree;                        // camera-frame points
+  std::optional<NearestWithHints> hinted;  // over tree: the steps move the views little
   std::vector<float> intensity;              // per point; empty without the colour term
   std::vector<Eigen::Vector3f> gradient;     // per point, camera frame
 };
@@ -217,12 +221,17 @@ void add_residual(int block_a, int block_b, const Eigen::Vector3d& x_a, const Ei
   g += w * r * J;
 }
 
+// Each pair's previous correspondences, per direction (i's points on j, j's on i), per source
+// point of the pass's stride: where the steps move a view little they are still the nearest.
+using PairHints = std::array<std::vector<std::uint32_t>, 2>;
+
 // The normal equations of one pair, both directions (i's points against j's surface and j's
 // against i's), at the current poses: the point-to-plane residual of each correspondence and,
 // where both views carry colour, its colour residual. Returns the number of correspondences.
 std::size_t accumulate_pair(const std::vector<View>& views, const std::vector<Isometry3d>& poses,
                             const Eigen::Vector3d& centre, std::size_t i, std::size_t j,
-                            double gate, std::size_t stride, Matrix12d& H, Vector12d& g) {
+                            double gate, std::size_t stride, PairHints& hints, Matrix12d& H,
+                            Vector12d& g) {
   H.setZero();
   g.setZero();
   std::size_t count = 0;
@@ -238,9 +247,14 @@ std::size_t accumulate_pair(const std::vector<View>& views, const std::vector<Is
     const PointCloud& ca = *views[a].cloud;
     const PointCloud& cb = *views[b].cloud;
     Neighbor hit;
+    std::vector<Neighbor> scratch;
+    std::vector<std::uint32_t>& previous = hints[direction];
+    previous.resize((ca.size() + stride - 1) / stride, NearestWithHints::kNoHint);
     for (std::size_t k = 0; k < ca.size(); k += stride) {
       const Eigen::Vector3d p_b = T_b_a * ca.positions[k].cast<double>();
-      if (!views[b].tree.nearest(p_b.cast<float>(), hit, static_cast<float>(gate))) continue;
+      if (!views[b].hinted->nearest(p_b.cast<float>(), static_cast<float>(gate), previous[k / stride], hit,
+                                    scratch))
+        continue;
       const Eigen::Vector3d n_b = cb.normals[hit.index].cast<double>();
       const Eigen::Vector3d na_b = T_b_a.linear() * ca.normals[k].cast<double>();
       if (!n_b.allFinite() || !na_b.allFinite() || n_b.dot(na_b) < kMinNormalCos) continue;
@@ -359,7 +373,8 @@ struct Step {
 Step step(const std::vector<View>& views, std::vector<Isometry3d>& poses,
           const std::vector<Isometry3d>& solved,
           const std::vector<std::pair<std::size_t, std::size_t>>& pairs, double gate,
-          std::size_t stride, Tripod& tripod, const std::optional<TripodFit>& rings) {
+          std::size_t stride, std::vector<PairHints>& hints, Tripod& tripod,
+          const std::optional<TripodFit>& rings) {
   const std::size_t n = poses.size();
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (const Isometry3d& T : poses) centre += T.translation();
@@ -369,7 +384,7 @@ Step step(const std::vector<View>& views, std::vector<Isometry3d>& poses,
   std::vector<std::size_t> counts(pairs.size());
   tbb::parallel_for(std::size_t{0}, pairs.size(), [&](std::size_t k) {
     counts[k] = accumulate_pair(views, poses, centre, pairs[k].first, pairs[k].second, gate,
-                                stride, H[k], g[k]);
+                                stride, hints[k], H[k], g[k]);
   });
   // Lever of the rotation damping: RMS distance of the views' points from the centre (a
   // sample of each view).
@@ -478,20 +493,24 @@ void refine_jointly(AlignmentState& s) {
     View& v = views[k];
     v.cloud = &s.prepared[s.registered[k]].cloud;
     v.tree = KdTree(v.cloud->positions);
+    v.hinted.emplace(v.tree);
     if (!color || !v.cloud->has_colors()) return;
     v.intensity = intensities_of(v.cloud->colors);
     v.gradient = surface_color_gradients(*v.cloud, v.tree, v.intensity, s.options.voxel_size);
   });
   const double gate = s.options.voxel_size;
   Tripod tripod = nodal_model(solved);
-  for (const Pass& pass : kPasses)
+  for (const Pass& pass : kPasses) {
+    std::vector<PairHints> hints(pairs.size());  // per pass: the stride picks the source points
     for (int it = 0; it < pass.max_iterations; ++it) {
       const std::optional<TripodFit> rings = turn_fit(s.options, rotations(poses));
-      const Step done = step(views, poses, solved, pairs, gate, pass.source_stride, tripod, rings);
+      const Step done =
+          step(views, poses, solved, pairs, gate, pass.source_stride, hints, tripod, rings);
       report.correspondences = done.correspondences;
       ++report.iterations;
       if (done.max_m < pass.step_eps_m && done.max_deg < pass.step_eps_deg) break;
     }
+  }
   // A view moved further than refinement may move it keeps its solved pose.
   std::vector<char> held(n, 0);
   for (std::size_t k = 0; k < n; ++k) {

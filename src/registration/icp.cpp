@@ -4,6 +4,7 @@
 
 #include <locard/core/error.hpp>
 #include <locard/core/kdtree.hpp>
+#include <locard/core/nearest_with_hints.hpp>
 #include <locard/preprocess/normals.hpp>
 #include <locard/preprocess/voxel_grid.hpp>
 #include <locard/registration/color_gradient.hpp>
@@ -261,25 +262,11 @@ struct PassContext {
   const PreparedSource& source;
   const PreparedTarget& target;
   const IcpOptions& options;
-  // Search hints, both optional (see run_pass): each source point's previous correspondence
-  // (kNoMatch if none), and per target point (R/2)^2, R being its distance to the nearest
-  // other target point, filled on first use (negative: not yet known).
+  // Search hints, optional (see run_pass): each source point's previous correspondence
+  // (NearestWithHints::kNoHint if none) and the target's hinted search over them.
   std::vector<std::uint32_t>* previous = nullptr;
-  std::atomic<float>* half_spacing_sq = nullptr;
+  const NearestWithHints* hinted = nullptr;
 };
-
-// (R_j / 2)^2 for target point j, computed once (a 2-NN query) and cached. Threads may race
-// to fill the same entry; they write the same value.
-float half_spacing_sq(const PassContext& ctx, std::uint32_t j, std::vector<Neighbor>& scratch) {
-  float v = ctx.half_spacing_sq[j].load(std::memory_order_relaxed);
-  if (v >= 0.f) return v;
-  const KdTree& tree = ctx.target.tree;
-  v = tree.knn(tree.points()[j], 2, scratch) == 2 ? 0.25f * scratch[1].squared_distance : 0.f;
-  ctx.half_spacing_sq[j].store(v, std::memory_order_relaxed);
-  return v;
-}
-
-constexpr std::uint32_t kNoMatch = std::numeric_limits<std::uint32_t>::max();
 
 // One pass at the estimate T_c (centred frames): correspondences and the sums of the method.
 template <IcpMethod M>
@@ -290,7 +277,6 @@ PassSums run_pass(const PassContext& ctx, const Isometry3d& T_c) {
   const auto& tpts = ctx.target.tree.points();
   const KdTree& tree = ctx.target.tree;
   const float max_d = static_cast<float>(ctx.options.max_correspondence_distance);
-  const float max_d2 = max_d * max_d;
   const RobustKernel kernel = ctx.options.kernel;
   const double sqrt_lg = std::sqrt(ctx.options.lambda_geometric);
   const double sqrt_lc = std::sqrt(1.0 - ctx.options.lambda_geometric);
@@ -304,30 +290,10 @@ PassSums run_pass(const PassContext& ctx, const Isometry3d& T_c) {
         for (std::size_t i = r.begin(); i != r.end(); ++i) {
           const Eigen::Vector3d q = R * src[i].cast<double>() + tr;
           const Eigen::Vector3f qf = q.cast<float>();
-          // Exact shortcuts from the previous correspondence j, at distance d from q now:
-          //  - if d < R_j / 2 (R_j: distance from j to its nearest other target point), j is
-          //    still the nearest point (any other k has |q - k| >= R_j - d > d), so no search;
-          //  - otherwise the nearest point is at most d away: a search within min(d, max_d)
-          //    finds the same point as one within max_d, but prunes most of the tree.
-          // Margins (1e-3 relative on the first test, 1e-5 on the bound) absorb float rounding.
-          float bound = max_d;
-          bool found = false;
-          if (previous && previous[i] != kNoMatch) {
-            const std::uint32_t j = previous[i];
-            const float d2 = (qf - tpts[j]).squaredNorm();
-            if (ctx.half_spacing_sq && d2 <= max_d2 &&
-                d2 < 0.999f * half_spacing_sq(ctx, j, scratch)) {
-              nb = Neighbor{j, d2};
-              found = true;
-            } else {
-              bound = std::min(bound, std::sqrt(d2) * (1.f + 1e-5f) + 1e-9f);
-            }
-          }
-          if (!found && !tree.nearest(qf, nb, bound)) {
-            if (previous) previous[i] = kNoMatch;
-            continue;
-          }
-          if (previous) previous[i] = nb.index;
+          // From the previous correspondence where there is one (exact: nearest_with_hints.hpp).
+          const bool found = ctx.hinted ? ctx.hinted->nearest(qf, max_d, previous[i], nb, scratch)
+                                        : tree.nearest(qf, nb, max_d);
+          if (!found) continue;
           const Eigen::Vector3d t = tpts[nb.index].cast<double>();
           const Eigen::Vector3d diff = q - t;
           acc.squared_distance += diff.squaredNorm();
@@ -502,11 +468,9 @@ IcpResult run_icp(const PreparedSource& source, const PreparedTarget& target,
   result.target_non_finite = target.non_finite;
   result.target_normals_estimated = target.normals_estimated;
 
-  std::vector<std::uint32_t> previous(source.points.size(), kNoMatch);
-  const std::unique_ptr<std::atomic<float>[]> half_spacing(
-      new std::atomic<float>[target.tree.size()]);
-  for (std::size_t j = 0; j < target.tree.size(); ++j) half_spacing[j].store(-1.f);
-  const PassContext ctx{source, target, o, &previous, half_spacing.get()};
+  std::vector<std::uint32_t> previous(source.points.size(), NearestWithHints::kNoHint);
+  const NearestWithHints hinted(target.tree);
+  const PassContext ctx{source, target, o, &previous, &hinted};
   const double n_source = static_cast<double>(source.points.size());
   Isometry3d T_c = to_centred(init_T_target_source, target.centroid, source.centroid);
   const auto fitness_of = [&](const PassSums& s) { return s.count / n_source; };
