@@ -252,8 +252,8 @@ std::size_t accumulate_pair(const std::vector<View>& views, const std::vector<Is
     previous.resize((ca.size() + stride - 1) / stride, NearestWithHints::kNoHint);
     for (std::size_t k = 0; k < ca.size(); k += stride) {
       const Eigen::Vector3d p_b = T_b_a * ca.positions[k].cast<double>();
-      if (!views[b].hinted->nearest(p_b.cast<float>(), static_cast<float>(gate), previous[k / stride], hit,
-                                    scratch))
+      std::uint32_t& hint = previous[k / stride];
+      if (!views[b].hinted->nearest(p_b.cast<float>(), static_cast<float>(gate), hint, hit, scratch))
         continue;
       const Eigen::Vector3d n_b = cb.normals[hit.index].cast<double>();
       const Eigen::Vector3d na_b = T_b_a.linear() * ca.normals[k].cast<double>();

@@ -624,32 +624,48 @@ Matrix3d as_picked_variance(const CaseModel& model, const Vector3d& o) {
   return o * o.transpose() * (t * t / 3.0);
 }
 
+// The raw points snapping looks at around a pick, the sphere's radius and the plane inlier
+// band (2.5 axial sigmas, at least plane_inlier_m). The sphere grows twice over:
+//  - where the spot was seen sparsely (far, at grazing incidence: a box's top seen from just
+//    above it) it doubles, so that its faces hold enough points to be planes;
+//  - a corner resolves from a plane cut across it only in a sphere several inlier bands wide
+//    (a right-angle corner's diagonal cut holds both faces' points within 1.4 bands of the
+//    edge, each face about half): structured light at 2-2.6 m has bands of 1.5-2.6 cm, and its
+//    best plane in the 3 cm sphere was such a cut (rms 7-8 mm, 97 % of the points). At least
+//    four bands, at most three search radii.
+struct Neighbourhood {
+  LocalPoints points;
+  double radius = 0.0;
+  double threshold = 0.0;
+};
+
+Neighbourhood neighbourhood_at(const CaseModel& model, const Vector3d& point,
+                               const SnapOptions& options) {
+  Neighbourhood n;
+  n.radius = options.search_radius_m;
+  n.points = model.local_points(point, n.radius);
+  if (n.points.points.size() < 4 * options.min_plane_points) {
+    n.radius = 2 * options.search_radius_m;
+    n.points = model.local_points(point, n.radius);
+  }
+  n.threshold = std::max(options.plane_inlier_m, 2.5 * median(n.points.axial_sigma_m));
+  const double bands = std::min(4.0 * n.threshold, 3.0 * options.search_radius_m);
+  if (bands > n.radius) {
+    n.radius = bands;
+    n.points = model.local_points(point, n.radius);
+  }
+  return n;
+}
+
 SnappedPoint snap_on_model(const CaseModel& model, const Vector3d& point,
                            const std::optional<Vector3d>& outward, const SnapOptions& options,
                            bool may_land) {
   SnappedPoint s;
   s.given = point;
   s.snapped = point;
-  // Where the spot was seen sparsely (far, at grazing incidence: a box's top seen from just
-  // above it) the neighbourhood doubles, so that its faces hold enough points to be planes.
-  double radius = options.search_radius_m;
-  LocalPoints L = model.local_points(point, radius);
-  if (L.points.size() < 4 * options.min_plane_points) {
-    radius = 2 * options.search_radius_m;
-    L = model.local_points(point, radius);
-  }
-  const double threshold = std::max(options.plane_inlier_m, 2.5 * median(L.axial_sigma_m));
-  {
-    // A corner resolves from a plane cut across it only in a sphere several inlier bands wide
-    // (a right-angle corner's diagonal cut holds both faces' points within 1.4 bands of the
-    // edge, each face about half): structured light at 2-2.6 m has bands of 1.5-2.6 cm, and
-    // its best plane in the 3 cm sphere was such a cut (rms 7-8 mm, 97 % of the points).
-    const double wanted = std::min(4.0 * threshold, 3.0 * options.search_radius_m);
-    if (wanted > radius) {
-      radius = wanted;
-      L = model.local_points(point, radius);
-    }
-  }
+  const Neighbourhood around = neighbourhood_at(model, point, options);
+  const LocalPoints& L = around.points;
+  const double radius = around.radius, threshold = around.threshold;
   s.points = L.points.size();
   const std::vector<std::uint32_t> seen = model.observing_views(point);
   s.views = seen.size();

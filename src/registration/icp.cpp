@@ -18,10 +18,8 @@
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 
-#include <atomic>
 #include <cmath>
 #include <limits>
-#include <memory>
 #include <numbers>
 
 namespace locard {

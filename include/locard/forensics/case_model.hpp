@@ -72,11 +72,12 @@ class CaseModel {
             double depth_scale, SensorNoiseModel noise, double model_voxel_m,
             double model_truncation_m = 0.0);
   // Reads mesh/mesh.ply, alignment/trajectory.txt, alignment/pose_covariance.json and the
-  // sensor description in case.json; the voxel and truncation from mesh/mesh.json. Throws InputError naming a missing or bad file. The noise
-  // model is the recorded "noise_model"; without one, SensorNoiseModel::for_sensor of the
-  // recorded "depth_sensor"; a case.json older than both (only "intrinsics_name") gets
-  // kinect_v2 when that name is exactly the simulator's preset "kinect_v2", else
-  // structured_light (documented fallback for old cases only).
+  // sensor description in case.json; the voxel and truncation from mesh/mesh.json. Throws
+  // InputError naming a missing or bad file. The noise model is the recorded "noise_model";
+  // without one, SensorNoiseModel::for_sensor of the recorded "depth_sensor"; a case.json
+  // older than both (only "intrinsics_name") gets kinect_v2 when that name is exactly the
+  // simulator's preset "kinect_v2", else structured_light (documented fallback for old cases
+  // only).
   static CaseModel load(const CaseFolder& folder);
   ~CaseModel();
   CaseModel(CaseModel&&) noexcept;
