@@ -310,13 +310,30 @@ LocalPoints CaseModel::local_points(const Eigen::Vector3d& p, double radius_m) c
         if (raw == 0) continue;
         const double z = raw / impl_->depth_scale;
         // Mixed ("flying") pixels: strictly between two neighbours across a depth jump, on
-        // either axis. They belong to neither surface, so they are left out.
+        // either axis. They belong to neither surface, so they are left out. A surface seen at
+        // grazing incidence climbs in depth by centimetres a pixel, every pixel strictly
+        // between its neighbours: it is a slope, not a jump, where the next pixels out on both
+        // sides go on climbing the same way, each by more than the 4 mm of a plateau's noise and
+        // one by at least a third of the jump - else the filter leaves a table top seen from
+        // just above a quarter of its pixels. A mixed pixel has a side that stops: the plateau
+        // it was pulled away from (even where the surface behind climbs steeply, a floor seen
+        // edge-on).
+        auto depth_at = [&](int uu, int vv) {
+          if (uu < 0 || vv < 0 || uu >= K.width || vv >= K.height) return 0.0;
+          return depth->at(uu, vv) / impl_->depth_scale;
+        };
         auto mixed = [&](int du, int dv) {
-          if (u - du < 0 || v - dv < 0 || u + du >= K.width || v + dv >= K.height) return false;
-          const std::uint16_t r0 = depth->at(u - du, v - dv), r1 = depth->at(u + du, v + dv);
-          if (r0 == 0 || r1 == 0) return false;
-          const double a = r0 / impl_->depth_scale - z, b = r1 / impl_->depth_scale - z;
-          return a * b < 0 && std::abs(a - b) > 0.04 && std::min(std::abs(a), std::abs(b)) > 0.004;
+          const double z0 = depth_at(u - du, v - dv), z1 = depth_at(u + du, v + dv);
+          if (z0 == 0.0 || z1 == 0.0) return false;
+          const double a = z0 - z, b = z1 - z, jump = std::abs(a - b);
+          if (!(a * b < 0 && jump > 0.04 && std::min(std::abs(a), std::abs(b)) > 0.004)) return false;
+          const double zm = depth_at(u - 2 * du, v - 2 * dv), zp = depth_at(u + 2 * du, v + 2 * dv);
+          if (zm == 0.0 || zp == 0.0) return true;
+          const double inner = b - a, before = z0 - zm, after = zp - z1;
+          const bool slope = before * inner > 0 && after * inner > 0 &&
+                             std::min(std::abs(before), std::abs(after)) > 0.004 &&
+                             std::max(std::abs(before), std::abs(after)) >= jump / 3.0;
+          return !slope;
         };
         if (mixed(1, 0) || mixed(0, 1)) continue;
         const Eigen::Vector3d q = T * Eigen::Vector3d((u - K.cx) / K.fx * z, (v - K.cy) / K.fy * z, z);

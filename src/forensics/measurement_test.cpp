@@ -299,6 +299,28 @@ TEST(SnappingBeforeAWall, AFaceBehindTheEndIsNotTheEnd) {
   }
 }
 
+// A table top (0.6 x 1.2 m, 4 cm thick) seen from 30 cm above it, its length running away from
+// the views: at its far end, 2.9-3.2 m away, 5-6 degrees of grazing incidence, a pixel's
+// footprint on the top several centimetres long and its depth climbing by centimetres a pixel
+// (each pixel strictly between its neighbours, as a mixed pixel is), the end face unseen. The
+// top's length along its left side, picks moved 1.5 cm onto the top and down the side: both
+// ends snap, within U.
+TEST(SnappingAtGrazingIncidence, AFarTableTopEndsAtItsFarEdge) {
+  constexpr double kTop = 0.77, kTopWidth = 0.6, kTopLength = 1.2;
+  const std::unique_ptr<CaseModel> model(scene_model(
+      {box("table top", {0.0, 0.0, kTop - 0.02}, {kTopWidth, kTopLength, 0.04})},
+      sim::KinectModel::kinect_v2(), SensorNoiseModel{}, 2.6, kTop + 0.3, "grazing-top"));
+  const Vector3d a{-0.5 * kTopWidth, -0.5 * kTopLength, kTop}, b{-0.5 * kTopWidth, 0.5 * kTopLength, kTop};
+  for (const Vector3d& moved : {Vector3d{0.015, 0.0, 0.0}, Vector3d{0.0, 0.0, -0.015}}) {
+    const auto m = measure_point_to_point(*model, a + moved, b + moved);
+    EXPECT_TRUE(is_snapped(m.a.feature) && is_snapped(m.b.feature))
+        << to_string(m.a.feature) << " " << to_string(m.b.feature) << ", picks moved " << moved.transpose();
+    const double error = m.distance_m - kTopLength;
+    EXPECT_LE(std::abs(error), m.expanded_uncertainty_m) << error << " m, picks moved " << moved.transpose();
+    EXPECT_LT(std::abs(error), 0.015) << "picks moved " << moved.transpose();
+  }
+}
+
 TEST(SnapFeatureNames, EveryFeatureHasItsName) {
   EXPECT_EQ(to_string(SnapFeature::Face), "face");
   EXPECT_EQ(to_string(SnapFeature::NotSnapped), "not snapped");
