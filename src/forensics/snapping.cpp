@@ -448,9 +448,9 @@ double outermost_supported(std::vector<std::pair<double, double>> reach, double 
 }
 
 // A raw point moved along its camera ray onto the plane. Depth noise moves a point along its
-// ray, and on a surface seen at grazing incidence that is a slide along the surface of
-// depth error / cos(incidence): a few millimetres of noise smear a table top seen from just
-// above it centimetres past its edge while keeping it within the inlier band. On the ray, the
+// ray: an error e puts it e cos(incidence) off the plane and nearly e along it, so on a surface
+// seen at grazing incidence a point within the inlier band may have slid band / cos(incidence)
+// along it - centimetres past a table top's edge seen from just above it. On the ray, the
 // point is where its pixel saw the plane - the edge lies within a pixel footprint of the last
 // one. Rays within 3 degrees of the plane, and mesh vertices, are left where they are.
 Vector3d on_plane_along_ray(const CaseModel& model, const LocalPoints& pts, std::uint32_t i,
