@@ -452,16 +452,12 @@ double outermost_supported(std::vector<std::pair<double, double>> reach, double 
 // seen at grazing incidence a point within the inlier band may have slid band / cos(incidence)
 // along it - centimetres past a table top's edge seen from just above it. On the ray, the
 // point is where its pixel saw the plane - the edge lies within a pixel footprint of the last
-// one. Rays within 3 degrees of the plane, and mesh vertices, are left where they are.
-Vector3d on_plane_along_ray(const CaseModel& model, const LocalPoints& pts, std::uint32_t i,
-                            const Plane& plane) {
-  const Vector3d& x = pts.points[i];
-  if (!pts.from_raw_depth) return x;
-  const Vector3d c = model.views()[pts.view[i]].T_world_camera.translation();
-  const Vector3d ray = x - c;
+// one. Rays within 3 degrees of the plane are left where they are.
+Vector3d on_plane_along_ray(const Vector3d& camera, const Vector3d& x, const Plane& plane) {
+  const Vector3d ray = x - camera;
   const double along = plane.normal.dot(ray);
   if (std::abs(along) < std::sin(3.0 * M_PI / 180.0) * ray.norm()) return x;
-  return c + (-plane.distance(c) / along) * ray;
+  return camera + (-plane.distance(camera) / along) * ray;
 }
 
 // Counts the side planes' points within `band` of the measuring line along the edge (and on
@@ -478,19 +474,24 @@ EdgeCounts count_edge_points(const CaseModel& model, const LocalPoints& pts,
   for (const Plane* p : side) {
     const Vector3d along_edge = p->normal.cross(o).normalized();
     auto visit = [&](std::uint32_t i) {
-      if (foreign[i] || (every_point && std::abs(p->distance(pts.points[i])) > threshold)) return;
-      // Counted where its ray meets the plane; the outermost point is taken as seen (the
-      // lateral noise carries rays just past the edge onto the plane, a footprint further out
-      // than depth noise does).
-      const Vector3d rel = on_plane_along_ray(model, pts, i, *p) - q;
-      const double s_along = rel.dot(o);
-      if (std::abs(rel.dot(along_edge)) > band) return;
+      const Vector3d& x = pts.points[i];
+      if (foreign[i] || (every_point && std::abs(p->distance(x)) > threshold)) return;
+      // A raw point is counted where its ray meets the plane, with its pixel's footprint as
+      // the sampling step (mesh vertices: as they are, the voxel); the outermost point is taken
+      // as seen (lateral noise carries rays just past the edge onto the plane, a footprint
+      // further out than depth noise does).
+      Vector3d counted_at = x;
       double step = model.model_voxel_m();
       if (pts.from_raw_depth) {
-        const Vector3d ray = pts.points[i] - model.views()[pts.view[i]].T_world_camera.translation();
+        const Vector3d camera = model.views()[pts.view[i]].T_world_camera.translation();
+        const Vector3d ray = x - camera;
+        counted_at = on_plane_along_ray(camera, x, *p);
         step = ray.norm() / K.fx / std::max(0.25, std::abs(ray.normalized().dot(p->normal)));
       }
-      reach.emplace_back((pts.points[i] - q).dot(o), step);
+      const Vector3d rel = counted_at - q;
+      const double s_along = rel.dot(o);
+      if (std::abs(rel.dot(along_edge)) > band) return;
+      reach.emplace_back((x - q).dot(o), step);
       auto& e = counts.per_view[pts.view[i]];
       if (s_along >= -2 * m && s_along < -m) e[0] += 1;
       if (s_along >= -m) e[1] += 1;
